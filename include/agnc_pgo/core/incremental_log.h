@@ -1,0 +1,43 @@
+// An incremental log: the order in which a front-end delivers poses and loop
+// closures (ALGORITHM.md §5). Both .irl files and g2o graphs (replayed in pose
+// order) become one of these.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "agnc_pgo/core/pose_graph.h"
+
+namespace agnc_pgo {
+namespace core {
+
+enum class EntryType { kPrior, kOdometry, kLoopClosure };
+
+struct LogEntry {
+  EntryType type = EntryType::kOdometry;
+  // kPrior: edge.to is the pose id, edge.measurement its prior value and
+  // edge.information its information. Otherwise the edge itself.
+  Edge edge;
+};
+
+struct IncrementalLog {
+  std::string name;
+  int dimension = 2;
+  std::vector<LogEntry> entries;
+
+  int numPoses() const;
+  int numLoopClosures() const;
+  int numOutliers() const;
+};
+
+// Orders a graph as a front-end would deliver it: prior on pose 0, then for
+// every k the odometry k -> k+1 followed by every loop closure whose newer
+// endpoint is k+1 (in file order). Odometry edges written k+1 -> k are
+// inverted. Requires an odometry edge for every consecutive pair.
+IncrementalLog logFromGraph(const PoseGraph& graph, const std::string& name);
+
+// Builds the graph a log describes (poses initialised by composing odometry).
+PoseGraph graphFromLog(const IncrementalLog& log);
+
+}  // namespace core
+}  // namespace agnc_pgo

@@ -1,0 +1,39 @@
+// Accuracy metrics: loop-closure classification and trajectory errors.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "agnc_pgo/core/pose_graph.h"
+
+namespace agnc_pgo {
+namespace core {
+
+struct ClassificationCounts {
+  int true_positive = 0;   // true loop kept
+  int false_positive = 0;  // outlier kept
+  int false_negative = 0;  // true loop rejected
+  int true_negative = 0;   // outlier rejected
+  double precision() const;  // 1 when nothing was kept
+  double recall() const;     // 1 when there was nothing to keep
+};
+
+// is_outlier[k] is the ground-truth label, kept[k] the classification.
+ClassificationCounts classify(const std::vector<bool>& is_outlier, const std::vector<bool>& kept);
+
+// Rigid (no scale) least-squares alignment of `estimate` onto `reference`
+// positions (Umeyama). Returns the RMSE of position error after alignment.
+// Both must have the same length (throws std::invalid_argument otherwise).
+using Poses = std::vector<Pose, Eigen::aligned_allocator<Pose>>;
+double absoluteTrajectoryError(const Poses& estimate, const Poses& reference, int dimension);
+
+// RMSE of the translational relative-pose error between consecutive poses.
+double relativePoseError(const Poses& estimate, const Poses& reference);
+
+// Writes "index tx ty tz qx qy qz qw" lines (TUM format, time = pose index
+// unless `stamps` gives one stamp per pose).
+void writeTumTrajectory(const Poses& poses, const std::string& path,
+                        const std::vector<double>& stamps = {});
+
+}  // namespace core
+}  // namespace agnc_pgo
