@@ -1,0 +1,68 @@
+// Options of the incremental GNC engine: a plain struct, built and validated
+// outside the algorithm (command line, ROS parameters, tests).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace agnc_pgo {
+namespace core {
+
+// How mu rises for a graduating loop closure (ALGORITHM.md §3).
+enum class ScheduleKind {
+  kNone,       // plain least squares on every loop closure, no GNC
+  kRisam,      // mu <- min(1, 2.2 mu + 0.12)
+  kAgncFixed,  // B-spline shape function with a fixed alpha (paper's "mode 1")
+  kAgnc,       // B-spline shape function with the adaptive alpha (paper's "mode 2")
+};
+
+// What the chi-square quantiles are compared with.
+enum class DistanceConvention {
+  kReference,  // the whitened residual norm r (both reference implementations)
+  kSquared,    // r^2, the statistically standard test
+};
+
+// Which existing loop closures restart graduation when new ones arrive.
+enum class ResetPolicy {
+  kNone,    // only the new loop closures graduate
+  kWindow,  // also every loop closure with an endpoint at or after the oldest
+            // endpoint of a new one (a batch stand-in for riSAM's Bayes-tree)
+  kAll,     // every loop closure
+};
+
+struct GncOptions {
+  ScheduleKind schedule = ScheduleKind::kAgnc;
+  DistanceConvention distance = DistanceConvention::kReference;
+  ResetPolicy reset = ResetPolicy::kWindow;
+  double shape_c = 3.0;        // SIG kernel shape (inliers within ~c sigma)
+  double fixed_alpha = 0.5;    // kAgncFixed
+  // kAgnc: interpolate as the AGNC reference code does ((cdf(m) - 0.25) / 0.65,
+  // with alpha = 0 meaning the rapid curve inside the band) instead of the paper.
+  bool reference_alpha_direction = false;
+  // After graduation, Gauss-Newton iterations continue until the mean tangent
+  // step per pose falls below `convergence_step` or `max_settle_iterations`.
+  int max_settle_iterations = 3;
+  double convergence_step = 0.01;
+  // mu_init / init_step adaptation of the loop closures that graduated.
+  bool adapt_initial_mu = true;
+  // Free only the poses from the oldest endpoint of the new loop closures on
+  // (older poses held fixed) instead of the whole graph.
+  bool local_window = false;
+  // Safety bound on GNC steps per update (a loop closure needs at most 6).
+  int max_gnc_steps = 30;
+};
+
+// Parsing for command lines and parameter servers; throw std::invalid_argument
+// naming the accepted values.
+ScheduleKind parseSchedule(const std::string& name);
+DistanceConvention parseDistanceConvention(const std::string& name);
+ResetPolicy parseResetPolicy(const std::string& name);
+std::string toString(ScheduleKind kind);
+std::string toString(DistanceConvention convention);
+std::string toString(ResetPolicy policy);
+
+// Throws std::invalid_argument with the offending field if out of range.
+void validate(const GncOptions& options);
+
+}  // namespace core
+}  // namespace agnc_pgo

@@ -1,0 +1,52 @@
+// Replays an incremental log through the engine entry by entry, as a
+// front-end would feed it (ALGORITHM.md §5): the estimate is brought up to
+// date after every entry, and every update is timed.
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "agnc_pgo/core/gnc_options.h"
+#include "agnc_pgo/core/incremental_log.h"
+#include "agnc_pgo/core/metrics.h"
+
+namespace agnc_pgo {
+namespace core {
+
+struct ReplayOptions {
+  GncOptions gnc;
+  // Called after every entry with (entries done, entries total).
+  std::function<void(size_t, size_t)> progress;
+};
+
+struct LoopClosureResult {
+  Edge edge;             // as delivered (is_outlier = ground-truth label)
+  double mu = 0;         // final mu
+  double weight = 0;     // final kernel weight
+  double distance = 0;   // final whitened residual norm r
+  bool inlier = false;   // final classification
+};
+
+struct ReplayResult {
+  Poses estimate;
+  std::vector<LoopClosureResult> loop_closures;
+  double runtime_s = 0;         // total wall time of all updates
+  long solves = 0;              // Gauss-Newton iterations over the run
+  long gnc_steps = 0;
+  std::vector<double> loop_update_ms;    // one per update that had loop closures
+  std::vector<int> loop_update_poses;    // graph size at each of those updates
+  ClassificationCounts counts;
+};
+
+// Throws std::invalid_argument if the log is not a valid sequence (no prior
+// first, an entry referring to an unknown pose).
+ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options);
+
+// The estimate as a graph (poses + every odometry and loop-closure edge).
+PoseGraph resultGraph(const IncrementalLog& log, const ReplayResult& result);
+
+// Percentile (0..100) of a sample by linear interpolation; 0 for no sample.
+double percentile(std::vector<double> values, double p);
+
+}  // namespace core
+}  // namespace agnc_pgo

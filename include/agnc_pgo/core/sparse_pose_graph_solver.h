@@ -1,0 +1,121 @@
+// A warm-started Gauss-Newton solver for pose graphs that keeps CHOLMOD's
+// symbolic factorisation while the structure does not change.
+//
+// Why not ceres::Solve per GNC step: every Solve() call re-runs Ceres'
+// preprocessing and CHOLMOD's symbolic analysis over the whole graph, which
+// dominates the cost of the one or two iterations a warm-started GNC step
+// needs. Here the error terms are still Ceres cost functions and manifolds
+// (evaluated through ceres::CostFunction::Evaluate), but the normal equations
+// are assembled into a pre-built block pattern and factorised numerically only.
+//
+// A solve can be restricted to a window: poses with id >= first_variable are
+// variables; older poses are held fixed and only factors touching a variable
+// pose take part. Factors are robust (SIG loss with a mutable mu), plain, or
+// disabled.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include <Eigen/CholmodSupport>
+#include <Eigen/SparseCore>
+#include <ceres/cost_function.h>
+#include <ceres/manifold.h>
+
+#include "agnc_pgo/core/pose.h"
+#include "agnc_pgo/core/pose_manifolds.h"
+#include "agnc_pgo/core/sig_loss.h"
+
+namespace agnc_pgo {
+namespace core {
+
+enum class FactorMode { kRobust, kPlain, kDisabled };
+
+struct IterationResult {
+  double cost_before = 0;  // robust cost of the window's factors before the step
+  double cost_after = 0;
+  double mean_step = 0;    // mean tangent-step norm per variable pose
+  int factorizations = 0;  // numeric factorisations (1 unless damping was needed)
+  bool accepted = false;   // false: no step reduced the cost; the estimate is unchanged
+};
+
+class SparsePoseGraphSolver {
+ public:
+  // Passed as a factor endpoint: a constant identity pose (for priors).
+  static constexpr int kAnchor = -1;
+
+  explicit SparsePoseGraphSolver(int dimension, double shape_c = 3.0);
+
+  int dimension() const { return dimension_; }
+  int numPoses() const { return static_cast<int>(blocks_.size()); }
+  int numFactors() const { return static_cast<int>(factors_.size()); }
+
+  int addPose(const Pose& initial);
+  Pose pose(int id) const { return fromBlock(dimension_, blocks_[id]); }
+  void setPose(int id, const Pose& pose) { blocks_[id] = toBlock(dimension_, pose); }
+
+  // A factor on the pose of `b` relative to `a` (a may be kAnchor for a
+  // prior: then z is the prior value). Throws std::invalid_argument on a
+  // non-positive-definite information or unknown pose.
+  int addFactor(int a, int b, const Pose& z, const Eigen::MatrixXd& information, FactorMode mode);
+
+  void setMu(int factor, double mu) { factors_[factor].loss.setMu(mu); }
+  double mu(int factor) const { return factors_[factor].loss.mu(); }
+  void setMode(int factor, FactorMode mode) { factors_[factor].mode = mode; }
+  FactorMode mode(int factor) const { return factors_[factor].mode; }
+  // The whitened residual norm r = |S e| at the current estimate.
+  double whitenedNorm(int factor) const;
+  // The kernel weight at the factor's current mu (1 for plain, 0 disabled).
+  double weight(int factor) const;
+
+  // One Gauss-Newton iteration over the poses with id >= first_variable,
+  // damped (Levenberg-Marquardt style) only if the plain step fails to reduce
+  // the robust cost.
+  IterationResult iterate(int first_variable);
+
+  // Robust cost over all factors (0.5 * sum rho).
+  double totalCost() const;
+
+ private:
+  struct Factor {
+    int a, b;
+    std::unique_ptr<ceres::CostFunction> cost;
+    SigLoss loss;
+    FactorMode mode;
+  };
+  // Where a window factor's blocks live in the sparse matrix.
+  struct FactorSlot {
+    int factor;
+    int ia, ib;               // variable block index or -1 (fixed)
+    long base_aa, stride_aa;  // (ia, ia)
+    long base_bb, stride_bb;  // (ib, ib)
+    long base_ab, stride_ab;  // (min, max) when both are variables
+  };
+
+  void buildStructure(int first_variable);
+  double factorCost(const Factor& f, const double* residual) const;
+  double windowCost() const;
+  void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;
+  const double* blockOf(int id) const { return id == kAnchor ? anchor_.data() : blocks_[id].data(); }
+
+  int dimension_;
+  int tangent_;  // 3 or 6
+  int ambient_;  // 3 or 7
+  double shape_c_;
+  std::unique_ptr<ceres::Manifold> manifold_;
+  PoseBlock anchor_;
+  std::vector<PoseBlock> blocks_;
+  std::vector<Factor> factors_;
+
+  // Cached structure (rebuilt when the window or the graph changes).
+  int structure_first_ = -1, structure_poses_ = -1, structure_factors_ = -1;
+  std::vector<FactorSlot> slots_;
+  std::vector<long> diagonal_offsets_;
+  Eigen::SparseMatrix<double> hessian_;
+  Eigen::VectorXd gradient_;
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> cholesky_;
+  std::vector<PoseBlock> saved_;
+};
+
+}  // namespace core
+}  // namespace agnc_pgo

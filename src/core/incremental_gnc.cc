@@ -1,0 +1,214 @@
+#include "agnc_pgo/core/incremental_gnc.h"
+
+#include <algorithm>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace agnc_pgo {
+namespace core {
+namespace {
+
+// Plain least squares needs more iterations than a warm-started GNC step:
+// without graduation, a loop closure's whole correction lands at once.
+constexpr int kMinPlainIterations = 10;
+
+bool finiteEdge(const Edge& e) {
+  return e.measurement.translation.allFinite() && e.measurement.rotation.coeffs().allFinite() &&
+         e.information.allFinite();
+}
+
+}  // namespace
+
+IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
+    : dimension_(dimension),
+      options_(options),
+      schedule_(options, dimension == 2 ? 3 : 6),
+      solver_(dimension, options.shape_c) {
+  validate(options_);
+}
+
+void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& information) {
+  if (numPoses() != 0) throw std::invalid_argument("the first pose exists already");
+  solver_.addPose(value);
+  solver_.addFactor(SparsePoseGraphSolver::kAnchor, 0, value, information, FactorMode::kPlain);
+}
+
+void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {
+  const int n = numPoses();
+  const bool from_ok = e.from >= 0 && e.from < n;
+  const bool to_ok = (e.to >= 0 && e.to < n) || (allow_new_pose && e.to == n);
+  if (!from_ok || !to_ok || e.from == e.to)
+    throw std::invalid_argument("edge " + std::to_string(e.from) + " -> " + std::to_string(e.to) +
+                                " refers to an unknown pose (graph has " + std::to_string(n) +
+                                " poses)");
+  if (!finiteEdge(e)) throw std::invalid_argument("edge contains NaN or Inf");
+  if (e.measurement.rotation.norm() < 1e-9) throw std::invalid_argument("zero quaternion");
+  const int dim = dimension_ == 2 ? 3 : 6;
+  if (e.information.rows() != dim || e.information.cols() != dim)
+    throw std::invalid_argument("information must be " + std::to_string(dim) + "x" +
+                                std::to_string(dim));
+  sqrtInformation(e.information);  // throws if not positive definite
+}
+
+void IncrementalGnc::addOdometry(const Edge& edge) {
+  validateEdge(edge, /*allow_new_pose=*/true);
+  if (edge.to == numPoses()) solver_.addPose(solver_.pose(edge.from) * edge.measurement);
+  solver_.addFactor(edge.from, edge.to, edge.measurement, edge.information, FactorMode::kPlain);
+  odometry_.push_back(edge);
+}
+
+int IncrementalGnc::addLoopClosure(const Edge& edge) {
+  validateEdge(edge, /*allow_new_pose=*/false);
+  LoopClosure loop;
+  loop.edge = edge;
+  loop.edge.kind = EdgeKind::kLoopClosure;
+  const FactorMode mode =
+      options_.schedule == ScheduleKind::kNone ? FactorMode::kPlain : FactorMode::kRobust;
+  loop.factor = solver_.addFactor(edge.from, edge.to, edge.measurement, edge.information, mode);
+  loops_.push_back(loop);
+  pending_.push_back(static_cast<int>(loops_.size()) - 1);
+  return static_cast<int>(loops_.size()) - 1;
+}
+
+Poses IncrementalGnc::poses() const {
+  Poses out;
+  out.reserve(numPoses());
+  for (int i = 0; i < numPoses(); ++i) out.push_back(solver_.pose(i));
+  return out;
+}
+
+void IncrementalGnc::refresh(LoopClosure* loop) {
+  loop->distance = solver_.whitenedNorm(loop->factor);
+  loop->weight = solver_.weight(loop->factor);
+  switch (loop->override_mode) {
+    case LoopOverride::kForceInlier: loop->inlier = true; break;
+    case LoopOverride::kForceOutlier: loop->inlier = false; break;
+    case LoopOverride::kAuto:
+      loop->inlier = schedule_.isInlier(schedule_.distanceOf(loop->distance));
+      break;
+  }
+}
+
+void IncrementalGnc::classifyAll() {
+  for (LoopClosure& loop : loops_) refresh(&loop);
+}
+
+void IncrementalGnc::applyOverride(LoopClosure* loop) {
+  switch (loop->override_mode) {
+    case LoopOverride::kForceInlier: solver_.setMode(loop->factor, FactorMode::kPlain); break;
+    case LoopOverride::kForceOutlier: solver_.setMode(loop->factor, FactorMode::kDisabled); break;
+    case LoopOverride::kAuto:
+      solver_.setMode(loop->factor, options_.schedule == ScheduleKind::kNone
+                                        ? FactorMode::kPlain
+                                        : FactorMode::kRobust);
+      break;
+  }
+  loop->graduation.graduating = false;
+}
+
+void IncrementalGnc::setOverride(int index, LoopOverride mode) {
+  if (index < 0 || index >= static_cast<int>(loops_.size()))
+    throw std::invalid_argument("unknown loop closure " + std::to_string(index));
+  loops_[index].override_mode = mode;
+  applyOverride(&loops_[index]);
+  needs_restart_.push_back(index);
+}
+
+int IncrementalGnc::settle(int first, int max_iterations, double last_step, UpdateStats* stats) {
+  int done = 0;
+  while (done < max_iterations && last_step >= options_.convergence_step) {
+    const IterationResult r = solver_.iterate(first);
+    ++done;
+    stats->factorizations += r.factorizations;
+    if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
+    last_step = r.mean_step;
+  }
+  stats->converged = last_step < options_.convergence_step;
+  stats->iterations += done;
+  return done;
+}
+
+UpdateStats IncrementalGnc::update() {
+  UpdateStats stats;
+  if (pending_.empty() && needs_restart_.empty()) return stats;
+
+  // The oldest pose a new loop closure (or changed override) touches.
+  int oldest = numPoses();
+  for (int index : pending_)
+    oldest = std::min({oldest, loops_[index].edge.from, loops_[index].edge.to});
+  for (int index : needs_restart_)
+    oldest = std::min({oldest, loops_[index].edge.from, loops_[index].edge.to});
+
+  // Select what graduates: the new loop closures, then the reset policy.
+  std::vector<int> graduating;
+  std::vector<char> selected(loops_.size(), 0);
+  auto select = [&](int index) {
+    LoopClosure& loop = loops_[index];
+    if (selected[index] || loop.override_mode != LoopOverride::kAuto) return;
+    selected[index] = 1;
+    schedule_.start(&loop.graduation);
+    if (loop.graduation.graduating) graduating.push_back(index);
+  };
+  for (int index : pending_) select(index);
+  for (int index : needs_restart_) select(index);
+  if (options_.reset != ResetPolicy::kNone) {
+    for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
+      const Edge& e = loops_[index].edge;
+      if (options_.reset == ResetPolicy::kAll || std::max(e.from, e.to) >= oldest) select(index);
+    }
+  }
+  std::vector<int> touched = graduating;
+  stats.graduated = static_cast<int>(graduating.size());
+  const int first = options_.local_window ? oldest : 0;
+  stats.first_variable = first;
+
+  // GNC steps: set mu for every graduating loop closure, then one iteration.
+  double last_step = std::numeric_limits<double>::infinity();
+  while (!graduating.empty() && stats.gnc_steps < options_.max_gnc_steps) {
+    for (int index : graduating) {
+      LoopClosure& loop = loops_[index];
+      const double r = solver_.whitenedNorm(loop.factor);
+      schedule_.advance(&loop.graduation, schedule_.distanceOf(r));
+      solver_.setMu(loop.factor, loop.graduation.mu);
+    }
+    const IterationResult r = solver_.iterate(first);
+    ++stats.gnc_steps;
+    ++stats.iterations;
+    stats.factorizations += r.factorizations;
+    if (r.accepted) last_step = r.mean_step;
+    for (int index : graduating) schedule_.finishStep(&loops_[index].graduation);
+    graduating.erase(std::remove_if(graduating.begin(), graduating.end(),
+                                    [this](int i) { return !loops_[i].graduation.graduating; }),
+                     graduating.end());
+  }
+
+  const int max_settle = options_.schedule == ScheduleKind::kNone
+                             ? std::max(options_.max_settle_iterations, kMinPlainIterations)
+                             : options_.max_settle_iterations;
+  settle(first, max_settle, last_step, &stats);
+
+  for (int index : touched) {
+    LoopClosure& loop = loops_[index];
+    refresh(&loop);
+    if (stats.converged) schedule_.adaptInitial(&loop.graduation, schedule_.distanceOf(loop.distance));
+  }
+  for (int index : pending_) refresh(&loops_[index]);  // e.g. schedule none: not graduating
+
+  pending_.clear();
+  needs_restart_.clear();
+  total_iterations_ += stats.iterations;
+  total_gnc_steps_ += stats.gnc_steps;
+  return stats;
+}
+
+UpdateStats IncrementalGnc::optimize(int max_iterations) {
+  UpdateStats stats;
+  settle(0, max_iterations, std::numeric_limits<double>::infinity(), &stats);
+  classifyAll();
+  total_iterations_ += stats.iterations;
+  return stats;
+}
+
+}  // namespace core
+}  // namespace agnc_pgo

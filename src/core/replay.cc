@@ -1,0 +1,86 @@
+#include "agnc_pgo/core/replay.h"
+
+#include <algorithm>
+#include <chrono>
+#include <stdexcept>
+
+#include "agnc_pgo/core/incremental_gnc.h"
+
+namespace agnc_pgo {
+namespace core {
+
+ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
+  using Clock = std::chrono::steady_clock;
+  ReplayResult result;
+  IncrementalGnc engine(log.dimension, options.gnc);
+  const size_t total = log.entries.size();
+  for (size_t k = 0; k < total; ++k) {
+    const LogEntry& entry = log.entries[k];
+    const auto start = Clock::now();
+    switch (entry.type) {
+      case EntryType::kPrior:
+        if (engine.numPoses() != 0 || entry.edge.to != 0)
+          throw std::invalid_argument("only one prior, on pose 0, is supported");
+        engine.addFirstPose(entry.edge.measurement, entry.edge.information);
+        break;
+      case EntryType::kOdometry:
+        if (engine.numPoses() == 0) throw std::invalid_argument("odometry before the prior");
+        engine.addOdometry(entry.edge);
+        break;
+      case EntryType::kLoopClosure:
+        engine.addLoopClosure(entry.edge);
+        break;
+    }
+    const UpdateStats stats = engine.update();
+    const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
+    result.runtime_s += seconds;
+    if (entry.type == EntryType::kLoopClosure) {
+      result.loop_update_ms.push_back(seconds * 1e3);
+      result.loop_update_poses.push_back(engine.numPoses());
+    }
+    (void)stats;
+    if (options.progress) options.progress(k + 1, total);
+  }
+
+  engine.classifyAll();
+  result.estimate = engine.poses();
+  result.solves = engine.totalIterations();
+  result.gnc_steps = engine.totalGncSteps();
+  std::vector<bool> labels, kept;
+  for (const LoopClosure& loop : engine.loopClosures()) {
+    LoopClosureResult r;
+    r.edge = loop.edge;
+    r.mu = loop.graduation.mu;
+    r.weight = loop.weight;
+    r.distance = loop.distance;
+    r.inlier = loop.inlier;
+    result.loop_closures.push_back(r);
+    labels.push_back(loop.edge.is_outlier);
+    kept.push_back(loop.inlier);
+  }
+  result.counts = classify(labels, kept);
+  return result;
+}
+
+PoseGraph resultGraph(const IncrementalLog& log, const ReplayResult& result) {
+  PoseGraph graph;
+  graph.dimension = log.dimension;
+  graph.poses = result.estimate;
+  for (const LogEntry& entry : log.entries)
+    if (entry.type != EntryType::kPrior) graph.edges.push_back(entry.edge);
+  graph.fixed = {0};
+  return graph;
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0.0;
+  std::sort(values.begin(), values.end());
+  const double position = std::min(100.0, std::max(0.0, p)) / 100.0 * (values.size() - 1);
+  const size_t low = static_cast<size_t>(position);
+  const size_t high = std::min(low + 1, values.size() - 1);
+  const double fraction = position - low;
+  return values[low] * (1.0 - fraction) + values[high] * fraction;
+}
+
+}  // namespace core
+}  // namespace agnc_pgo

@@ -1,0 +1,268 @@
+#include "agnc_pgo/core/sparse_pose_graph_solver.h"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+namespace agnc_pgo {
+namespace core {
+namespace {
+
+using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+// At most 6x6: fixed capacity keeps the per-factor products off the heap.
+using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
+using SmallRowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 6, 6>;
+using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;
+constexpr int kMaxDampingAttempts = 6;
+
+}  // namespace
+
+SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
+    : dimension_(dimension),
+      tangent_(dimension == 2 ? 3 : 6),
+      ambient_(dimension == 2 ? 3 : 7),
+      shape_c_(shape_c),
+      manifold_(makePoseManifold(dimension)),
+      anchor_(toBlock(dimension, Pose::identity())) {
+  if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
+}
+
+int SparsePoseGraphSolver::addPose(const Pose& initial) {
+  blocks_.push_back(toBlock(dimension_, initial));
+  return numPoses() - 1;
+}
+
+int SparsePoseGraphSolver::addFactor(int a, int b, const Pose& z,
+                                     const Eigen::MatrixXd& information, FactorMode mode) {
+  auto valid = [this](int id) { return id == kAnchor || (id >= 0 && id < numPoses()); };
+  if (!valid(a) || !valid(b) || b == kAnchor || a == b)
+    throw std::invalid_argument("factor refers to an unknown pose");
+  Factor f{a, b, std::unique_ptr<ceres::CostFunction>(makePoseErrorCost(dimension_, z, information)),
+           SigLoss(0.0, shape_c_), mode};
+  factors_.push_back(std::move(f));
+  return numFactors() - 1;
+}
+
+void SparsePoseGraphSolver::evaluate(const Factor& f, double* residual, double* jac_a,
+                                     double* jac_b) const {
+  const double* parameters[2] = {blockOf(f.a), blockOf(f.b)};
+  double ambient_a[6 * 7], ambient_b[6 * 7];
+  double* jacobians[2] = {jac_a ? ambient_a : nullptr, jac_b ? ambient_b : nullptr};
+  const bool want_jacobians = jac_a || jac_b;
+  f.cost->Evaluate(parameters, residual, want_jacobians ? jacobians : nullptr);
+  if (!want_jacobians) return;
+  // Ambient -> tangent: J_local = J_ambient * PlusJacobian(x).
+  double plus[7 * 6];
+  auto to_local = [&](const double* x, const double* ambient, double* local) {
+    if (dimension_ == 2) {
+      std::copy(ambient, ambient + 9, local);
+      return;
+    }
+    manifold_->PlusJacobian(x, plus);
+    Eigen::Map<RowMajorMatrix>(local, tangent_, tangent_) =
+        Eigen::Map<const RowMajorMatrix>(ambient, tangent_, ambient_) *
+        Eigen::Map<const RowMajorMatrix>(plus, ambient_, tangent_);
+  };
+  if (jac_a) to_local(parameters[0], ambient_a, jac_a);
+  if (jac_b) to_local(parameters[1], ambient_b, jac_b);
+}
+
+double SparsePoseGraphSolver::factorCost(const Factor& f, const double* residual) const {
+  if (f.mode == FactorMode::kDisabled) return 0.0;
+  const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
+  if (f.mode == FactorMode::kPlain) return 0.5 * s;
+  double rho[3];
+  f.loss.Evaluate(s, rho);
+  return 0.5 * rho[0];
+}
+
+double SparsePoseGraphSolver::whitenedNorm(int factor) const {
+  double residual[6];
+  evaluate(factors_[factor], residual, nullptr, nullptr);
+  return Eigen::Map<const Eigen::VectorXd>(residual, tangent_).norm();
+}
+
+double SparsePoseGraphSolver::weight(int factor) const {
+  const Factor& f = factors_[factor];
+  if (f.mode == FactorMode::kDisabled) return 0.0;
+  if (f.mode == FactorMode::kPlain) return 1.0;
+  return f.loss.weight(whitenedNorm(factor));
+}
+
+double SparsePoseGraphSolver::totalCost() const {
+  double cost = 0.0, residual[6];
+  for (const Factor& f : factors_) {
+    evaluate(f, residual, nullptr, nullptr);
+    cost += factorCost(f, residual);
+  }
+  return cost;
+}
+
+double SparsePoseGraphSolver::windowCost() const {
+  double cost = 0.0, residual[6];
+  for (const FactorSlot& slot : slots_) {
+    const Factor& f = factors_[slot.factor];
+    if (f.mode == FactorMode::kDisabled) continue;
+    evaluate(f, residual, nullptr, nullptr);
+    cost += factorCost(f, residual);
+  }
+  return cost;
+}
+
+void SparsePoseGraphSolver::buildStructure(int first) {
+  const int d = tangent_;
+  const int nv = numPoses() - first;
+  auto var = [first](int id) { return id >= first ? id - first : -1; };
+
+  // Block rows I <= J present in each block column J.
+  std::vector<std::vector<int>> rows(nv);
+  for (int j = 0; j < nv; ++j) rows[j].push_back(j);
+  slots_.clear();
+  for (int k = 0; k < numFactors(); ++k) {
+    const Factor& f = factors_[k];
+    const int ia = f.a == kAnchor ? -1 : var(f.a);
+    const int ib = var(f.b);
+    if (ia < 0 && ib < 0) continue;
+    if (ia >= 0 && ib >= 0) rows[std::max(ia, ib)].push_back(std::min(ia, ib));
+    slots_.push_back(FactorSlot{k, ia, ib, 0, 0, 0, 0, 0, 0});
+  }
+  std::vector<long> column_start(nv + 1, 0);
+  for (int j = 0; j < nv; ++j) {
+    std::sort(rows[j].begin(), rows[j].end());
+    rows[j].erase(std::unique(rows[j].begin(), rows[j].end()), rows[j].end());
+    column_start[j + 1] = column_start[j] + static_cast<long>(rows[j].size()) * d * d;
+  }
+
+  const long n = static_cast<long>(nv) * d;
+  hessian_ = Eigen::SparseMatrix<double>(n, n);
+  hessian_.resizeNonZeros(column_start[nv]);
+  int* outer = hessian_.outerIndexPtr();
+  int* inner = hessian_.innerIndexPtr();
+  for (int j = 0; j < nv; ++j) {
+    const long height = static_cast<long>(rows[j].size()) * d;
+    for (int c = 0; c < d; ++c) {
+      const long start = column_start[j] + c * height;
+      outer[j * d + c] = static_cast<int>(start);
+      long k = start;
+      for (int i : rows[j])
+        for (int r = 0; r < d; ++r) inner[k++] = i * d + r;
+    }
+  }
+  outer[n] = static_cast<int>(column_start[nv]);
+
+  // Offset of block (i, j), i <= j: base + c * stride + r for entry (r, c).
+  auto locate = [&](int i, int j, long* base, long* stride) {
+    const auto it = std::lower_bound(rows[j].begin(), rows[j].end(), i);
+    *stride = static_cast<long>(rows[j].size()) * d;
+    *base = column_start[j] + static_cast<long>(it - rows[j].begin()) * d;
+  };
+  for (FactorSlot& s : slots_) {
+    if (s.ia >= 0) locate(s.ia, s.ia, &s.base_aa, &s.stride_aa);
+    if (s.ib >= 0) locate(s.ib, s.ib, &s.base_bb, &s.stride_bb);
+    if (s.ia >= 0 && s.ib >= 0)
+      locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
+  }
+  diagonal_offsets_.resize(n);
+  for (int j = 0; j < nv; ++j) {
+    long base, stride;
+    locate(j, j, &base, &stride);
+    for (int c = 0; c < d; ++c) diagonal_offsets_[j * d + c] = base + c * stride + c;
+  }
+  gradient_.resize(n);
+  cholesky_.analyzePattern(hessian_);
+
+  structure_first_ = first;
+  structure_poses_ = numPoses();
+  structure_factors_ = numFactors();
+}
+
+IterationResult SparsePoseGraphSolver::iterate(int first) {
+  IterationResult result;
+  first = std::max(0, std::min(first, numPoses()));
+  const int nv = numPoses() - first;
+  if (nv == 0) return result;
+  if (first != structure_first_ || numPoses() != structure_poses_ ||
+      numFactors() != structure_factors_)
+    buildStructure(first);
+
+  const int d = tangent_;
+  double* values = hessian_.valuePtr();
+  std::fill(values, values + hessian_.nonZeros(), 0.0);
+  gradient_.setZero();
+
+  // Linearise: H += w J^T J, g += w J^T r (IRLS weights of the SIG loss).
+  double residual[6], jac_a[36], jac_b[36];
+  double cost = 0.0;
+  for (const FactorSlot& s : slots_) {
+    const Factor& f = factors_[s.factor];
+    if (f.mode == FactorMode::kDisabled) continue;
+    evaluate(f, residual, s.ia >= 0 ? jac_a : nullptr, s.ib >= 0 ? jac_b : nullptr);
+    Eigen::Map<const Eigen::VectorXd> r(residual, d);
+    double w = 1.0;
+    if (f.mode == FactorMode::kRobust) {
+      double rho[3];
+      f.loss.Evaluate(r.squaredNorm(), rho);
+      w = rho[1];
+      cost += 0.5 * rho[0];
+    } else {
+      cost += 0.5 * r.squaredNorm();
+    }
+    const SmallRowMajor ja = Eigen::Map<const RowMajorMatrix>(jac_a, d, d);
+    const SmallRowMajor jb = Eigen::Map<const RowMajorMatrix>(jac_b, d, d);
+    const SmallVector rv = r;
+    auto add_block = [&](long base, long stride, const SmallMatrix& block) {
+      for (int c = 0; c < d; ++c)
+        for (int rr = 0; rr < d; ++rr) values[base + c * stride + rr] += block(rr, c);
+    };
+    if (s.ia >= 0) {
+      add_block(s.base_aa, s.stride_aa, w * ja.transpose() * ja);
+      gradient_.segment(s.ia * d, d) += w * ja.transpose() * rv;
+    }
+    if (s.ib >= 0) {
+      add_block(s.base_bb, s.stride_bb, w * jb.transpose() * jb);
+      gradient_.segment(s.ib * d, d) += w * jb.transpose() * rv;
+    }
+    if (s.ia >= 0 && s.ib >= 0) {
+      if (s.ia < s.ib) add_block(s.base_ab, s.stride_ab, w * ja.transpose() * jb);
+      else add_block(s.base_ab, s.stride_ab, w * jb.transpose() * ja);
+    }
+  }
+  result.cost_before = cost;
+  result.cost_after = cost;
+
+  // Gauss-Newton first; Marquardt damping of the diagonal only on failure.
+  Eigen::VectorXd diagonal(diagonal_offsets_.size());
+  for (size_t k = 0; k < diagonal_offsets_.size(); ++k) diagonal[k] = values[diagonal_offsets_[k]];
+  saved_.assign(blocks_.begin() + first, blocks_.end());
+  double lambda = 0.0;
+  for (int attempt = 0; attempt < kMaxDampingAttempts; ++attempt) {
+    if (attempt > 0) {
+      lambda = attempt == 1 ? 1e-4 : lambda * 10.0;
+      for (size_t k = 0; k < diagonal_offsets_.size(); ++k)
+        values[diagonal_offsets_[k]] = diagonal[k] * (1.0 + lambda) + 1e-9;
+    }
+    cholesky_.factorize(hessian_);
+    ++result.factorizations;
+    if (cholesky_.info() != Eigen::Success) continue;
+    const Eigen::VectorXd delta = cholesky_.solve(-gradient_);
+    if (!delta.allFinite()) continue;
+    double step_sum = 0.0;
+    for (int v = 0; v < nv; ++v) {
+      const double* dv = delta.data() + v * d;
+      manifold_->Plus(saved_[v].data(), dv, blocks_[first + v].data());
+      step_sum += Eigen::Map<const Eigen::VectorXd>(dv, d).norm();
+    }
+    const double new_cost = windowCost();
+    if (new_cost <= cost + 1e-10 * std::abs(cost) + 1e-12) {
+      result.cost_after = new_cost;
+      result.mean_step = step_sum / nv;
+      result.accepted = true;
+      return result;
+    }
+    std::copy(saved_.begin(), saved_.end(), blocks_.begin() + first);
+  }
+  return result;
+}
+
+}  // namespace core
+}  // namespace agnc_pgo

@@ -1,0 +1,236 @@
+// agnc_pgo_replay: replays a g2o graph (with injected outliers) or a riSAM
+// .irl log through the incremental GNC engine and reports accuracy and
+// runtime. See --help.
+#include <sys/resource.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "agnc_pgo/core/batch_solver.h"
+#include "agnc_pgo/core/g2o_io.h"
+#include "agnc_pgo/core/irl_io.h"
+#include "agnc_pgo/core/metrics.h"
+#include "agnc_pgo/core/outlier_injection.h"
+#include "agnc_pgo/core/replay.h"
+
+namespace {
+
+using namespace agnc_pgo::core;
+
+const char* kUsage =
+    "usage: agnc_pgo_replay --input FILE.g2o|FILE.irl [--outliers PERCENT] [--seed N]\n"
+    "                       [--schedule agnc|agnc-fixed|risam|none] [--ground-truth GT.g2o]\n"
+    "                       [--output DIR] [--quiet]\n"
+    "                       [--distance reference|squared] [--reset none|window|all]\n"
+    "                       [--local-window] [--reference-alpha]\n";
+
+struct Arguments {
+  std::string input, ground_truth, output;
+  double outliers = -1;  // < 0: not given
+  unsigned long seed = 1;
+  bool quiet = false;
+  GncOptions gnc;
+};
+
+double parseNumber(const std::string& flag, const std::string& text) {
+  char* end = nullptr;
+  const double v = std::strtod(text.c_str(), &end);
+  if (text.empty() || *end != '\0' || !std::isfinite(v))
+    throw std::invalid_argument(flag + " expects a number, got '" + text + "'");
+  return v;
+}
+
+Arguments parseArguments(int argc, char** argv) {
+  Arguments a;
+  for (int i = 1; i < argc; ++i) {
+    const std::string flag = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw std::invalid_argument(flag + " needs a value");
+      return argv[++i];
+    };
+    if (flag == "--input") a.input = value();
+    else if (flag == "--outliers") a.outliers = parseNumber(flag, value());
+    else if (flag == "--seed") a.seed = static_cast<unsigned long>(parseNumber(flag, value()));
+    else if (flag == "--schedule") a.gnc.schedule = parseSchedule(value());
+    else if (flag == "--ground-truth") a.ground_truth = value();
+    else if (flag == "--output") a.output = value();
+    else if (flag == "--quiet") a.quiet = true;
+    else if (flag == "--distance") a.gnc.distance = parseDistanceConvention(value());
+    else if (flag == "--reset") a.gnc.reset = parseResetPolicy(value());
+    else if (flag == "--local-window") a.gnc.local_window = true;
+    else if (flag == "--reference-alpha") a.gnc.reference_alpha_direction = true;
+    else if (flag == "--help" || flag == "-h") {
+      std::cout << kUsage;
+      std::exit(0);
+    } else {
+      throw std::invalid_argument("unknown argument '" + flag + "'");
+    }
+  }
+  if (a.input.empty()) throw std::invalid_argument("--input is required");
+  if (a.outliers >= 100.0) throw std::invalid_argument("--outliers must be in [0, 100)");
+  validate(a.gnc);
+  return a;
+}
+
+bool endsWith(const std::string& s, const std::string& suffix) {
+  return s.size() >= suffix.size() && s.compare(s.size() - suffix.size(), suffix.size(), suffix) == 0;
+}
+
+std::string stem(const std::string& path) { return std::filesystem::path(path).stem().string(); }
+
+// Loads the input as a log; injects outliers into g2o graphs.
+IncrementalLog loadLog(const Arguments& a, const PoseGraph* ground_truth) {
+  if (endsWith(a.input, ".irl")) {
+    if (a.outliers > 0)
+      throw std::invalid_argument("--outliers does not apply to .irl logs (their outliers are labelled in the file)");
+    return readIrl(a.input);
+  }
+  PoseGraph graph = readG2o(a.input);
+  const double percent = a.outliers < 0 ? 0.0 : a.outliers;
+  if (percent > 0) {
+    // Outliers must be inconsistent with the true geometry: ground truth if
+    // given, else the outlier-free optimum.
+    PoseGraph reference = graph;
+    if (ground_truth) reference.poses = ground_truth->poses;
+    else optimizeBatch(&reference);
+    OutlierOptions options;
+    options.percent = percent;
+    options.seed = a.seed;
+    graph = injectOutliers(graph, reference, stem(a.input), options);
+  }
+  return logFromGraph(graph, stem(a.input));
+}
+
+std::string jsonNumber(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream s;
+  s << std::setprecision(10) << v;
+  return s.str();
+}
+
+double peakRssMb() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  return usage.ru_maxrss / 1024.0;  // ru_maxrss is in KiB on Linux
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    const Arguments args = parseArguments(argc, argv);
+    std::unique_ptr<PoseGraph> ground_truth;
+    if (!args.ground_truth.empty())
+      ground_truth = std::make_unique<PoseGraph>(readG2o(args.ground_truth));
+    const IncrementalLog log = loadLog(args, ground_truth.get());
+    if (ground_truth && static_cast<int>(ground_truth->poses.size()) != log.numPoses())
+      throw std::invalid_argument("ground truth has " + std::to_string(ground_truth->poses.size()) +
+                                  " poses, the input " + std::to_string(log.numPoses()));
+
+    ReplayOptions options;
+    options.gnc = args.gnc;
+    auto last_print = std::chrono::steady_clock::now();
+    if (!args.quiet) {
+      options.progress = [&last_print](size_t done, size_t total) {
+        const auto now = std::chrono::steady_clock::now();
+        if (now - last_print < std::chrono::seconds(1) && done != total) return;
+        last_print = now;
+        std::cerr << "\r  replay " << done << "/" << total << " entries" << (done == total ? "\n" : "")
+                  << std::flush;
+      };
+    }
+    const ReplayResult result = replay(log, options);
+
+    // Reference estimate: the outlier-free least-squares optimum.
+    PoseGraph inlier_optimum = graphFromLog(log);
+    BatchOptions batch;
+    batch.skip_outliers = true;
+    optimizeBatch(&inlier_optimum, batch);
+
+    const double ate = ground_truth ? absoluteTrajectoryError(result.estimate, ground_truth->poses, log.dimension)
+                                    : NAN;
+    const double rpe = ground_truth ? relativePoseError(result.estimate, ground_truth->poses) : NAN;
+    const double ate_inlier_optimum =
+        absoluteTrajectoryError(result.estimate, inlier_optimum.poses, log.dimension);
+    const double p50 = percentile(result.loop_update_ms, 50), p95 = percentile(result.loop_update_ms, 95),
+                 pmax = percentile(result.loop_update_ms, 100);
+
+    std::ostringstream json;
+    json << "{\n"
+         << "  \"dataset\": \"" << log.name << "\",\n"
+         << "  \"input\": \"" << std::filesystem::path(args.input).filename().string() << "\",\n"
+         << "  \"dimension\": " << log.dimension << ",\n"
+         << "  \"poses\": " << log.numPoses() << ",\n"
+         << "  \"loop_closures\": " << log.numLoopClosures() << ",\n"
+         << "  \"outliers\": " << log.numOutliers() << ",\n"
+         << "  \"outlier_percent\": " << jsonNumber(args.outliers < 0 ? NAN : args.outliers) << ",\n"
+         << "  \"seed\": " << args.seed << ",\n"
+         << "  \"schedule\": \"" << toString(args.gnc.schedule) << "\",\n"
+         << "  \"distance\": \"" << toString(args.gnc.distance) << "\",\n"
+         << "  \"reset\": \"" << toString(args.gnc.reset) << "\",\n"
+         << "  \"local_window\": " << (args.gnc.local_window ? "true" : "false") << ",\n"
+         << "  \"runtime_s\": " << jsonNumber(result.runtime_s) << ",\n"
+         << "  \"solves\": " << result.solves << ",\n"
+         << "  \"gnc_steps\": " << result.gnc_steps << ",\n"
+         << "  \"precision\": " << jsonNumber(result.counts.precision()) << ",\n"
+         << "  \"recall\": " << jsonNumber(result.counts.recall()) << ",\n"
+         << "  \"true_positives\": " << result.counts.true_positive << ",\n"
+         << "  \"false_positives\": " << result.counts.false_positive << ",\n"
+         << "  \"false_negatives\": " << result.counts.false_negative << ",\n"
+         << "  \"ate_m\": " << jsonNumber(ate) << ",\n"
+         << "  \"rpe_m\": " << jsonNumber(rpe) << ",\n"
+         << "  \"ate_vs_inlier_optimum_m\": " << jsonNumber(ate_inlier_optimum) << ",\n"
+         << "  \"update_ms_p50\": " << jsonNumber(p50) << ",\n"
+         << "  \"update_ms_p95\": " << jsonNumber(p95) << ",\n"
+         << "  \"update_ms_max\": " << jsonNumber(pmax) << ",\n"
+         << "  \"peak_rss_mb\": " << jsonNumber(peakRssMb()) << "\n"
+         << "}\n";
+
+    if (!args.output.empty()) {
+      namespace fs = std::filesystem;
+      fs::create_directories(args.output);
+      const fs::path dir(args.output);
+      std::ofstream(dir / "metrics.json") << json.str();
+      writeG2o(resultGraph(log, result), (dir / "estimate.g2o").string());
+      writeTumTrajectory(result.estimate, (dir / "trajectory.tum").string());
+      std::ofstream csv(dir / "loop_closures.csv");
+      csv << "from,to,outlier,mu,weight,distance,inlier\n" << std::setprecision(10);
+      for (const LoopClosureResult& l : result.loop_closures)
+        csv << l.edge.from << ',' << l.edge.to << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << l.mu << ','
+            << l.weight << ',' << l.distance << ',' << (l.inlier ? 1 : 0) << '\n';
+      std::ofstream latency(dir / "latency.csv");
+      latency << "poses,update_ms\n";
+      for (size_t i = 0; i < result.loop_update_ms.size(); ++i)
+        latency << result.loop_update_poses[i] << ',' << result.loop_update_ms[i] << '\n';
+    }
+
+    if (!args.quiet) {
+      std::printf("%-28s %s (%dD), %d poses, %d loop closures (%d outliers)\n", "input:", log.name.c_str(),
+                  log.dimension, log.numPoses(), log.numLoopClosures(), log.numOutliers());
+      std::printf("%-28s %s\n", "schedule:", toString(args.gnc.schedule).c_str());
+      std::printf("%-28s %.3f s (%ld solves, %ld GNC steps)\n", "runtime:", result.runtime_s, result.solves,
+                  result.gnc_steps);
+      std::printf("%-28s %.2f / %.2f / %.2f ms\n", "loop update p50/p95/max:", p50, p95, pmax);
+      std::printf("%-28s %.4f (TP %d, FP %d)\n", "precision:", result.counts.precision(),
+                  result.counts.true_positive, result.counts.false_positive);
+      std::printf("%-28s %.4f (FN %d)\n", "recall:", result.counts.recall(), result.counts.false_negative);
+      if (ground_truth) std::printf("%-28s %.4f m / %.4f m\n", "ATE / RPE vs ground truth:", ate, rpe);
+      std::printf("%-28s %.4f m\n", "ATE vs outlier-free optimum:", ate_inlier_optimum);
+    } else {
+      std::cout << json.str();
+    }
+    return 0;
+  } catch (const std::exception& e) {
+    std::cerr << "agnc_pgo_replay: " << e.what() << "\n";
+    return 1;
+  }
+}
