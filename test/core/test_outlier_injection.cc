@@ -1,0 +1,416 @@
+// Tests for riSAM-style outlier injection (ALGORITHM.md §5).
+#include "agnc_pgo/core/outlier_injection.h"
+
+#include <cmath>
+#include <limits>
+#include <set>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include <Eigen/Geometry>
+
+#include "agnc_pgo/core/g2o_io.h"
+
+namespace agnc_pgo {
+namespace core {
+namespace {
+
+// chi2 quantiles at 0.95, hard-coded so the test checks the library's gate
+// against independent numbers.
+constexpr double kChi2Q95Dof3 = 7.814727903251178;
+constexpr double kChi2Q95Dof6 = 12.591587243743977;
+
+Pose planarPose(double x, double y, double yaw) {
+  Pose pose;
+  pose.translation = Eigen::Vector3d(x, y, 0.0);
+  pose.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+  return pose;
+}
+
+// Mahalanobis distance of the pose of j in i's frame from the identity,
+// computed here from the pose data: SE(2) error (x, y, yaw), SE(3) error
+// (t, 2 vec(q)) with q taken in the w >= 0 hemisphere.
+double distanceToIdentity(const PoseGraph& reference, int i, int j, const Eigen::VectorXd& covariance) {
+  const Pose& a = reference.poses[i];
+  const Pose& b = reference.poses[j];
+  const Eigen::Quaterniond q = a.rotation.conjugate() * b.rotation;
+  const Eigen::Vector3d t = a.rotation.conjugate() * (b.translation - a.translation);
+  Eigen::VectorXd error(covariance.size());
+  if (covariance.size() == 3) {
+    const Eigen::Matrix3d R = q.toRotationMatrix();
+    error << t.x(), t.y(), std::atan2(R(1, 0), R(0, 0));
+  } else {
+    const double sign = q.w() < 0 ? -1.0 : 1.0;
+    error << t, 2.0 * sign * q.vec();
+  }
+  return (error.array().square() / covariance.array()).sum();
+}
+
+// N poses along x that revisit the same ten spots (x = 0.05 * (k % 10)), so
+// many pose pairs are consistent with the identity under CSAIL's noise and
+// must be rejected, while pairs >= 7 spots apart are not. `loops` true loop
+// closures (k + 2 -> k) make L.
+PoseGraph revisitingPlanarGraph(int num_poses, int loops) {
+  PoseGraph graph;
+  graph.dimension = 2;
+  for (int k = 0; k < num_poses; ++k) graph.poses.push_back(planarPose(0.05 * (k % 10), 0.0, 0.0));
+  for (int k = 0; k + 1 < num_poses; ++k) {
+    Edge edge;
+    edge.from = k;
+    edge.to = k + 1;
+    edge.measurement = planarPose(0.05, 0.0, 0.0);
+    edge.information = Eigen::Matrix3d::Identity() * 100.0;
+    edge.kind = EdgeKind::kOdometry;
+    graph.edges.push_back(edge);
+  }
+  for (int k = 0; k < loops; ++k) {
+    Edge edge;
+    edge.from = k + 2;
+    edge.to = k;
+    edge.measurement = planarPose(0.1, 0.0, 0.0);
+    edge.information = Eigen::Matrix3d::Identity() * 50.0;
+    edge.kind = EdgeKind::kLoopClosure;
+    graph.edges.push_back(edge);
+  }
+  return graph;
+}
+
+// 3D graph on a helix with varying orientation and `loops` true loops.
+PoseGraph helixGraph(int num_poses, int loops) {
+  PoseGraph graph;
+  graph.dimension = 3;
+  for (int k = 0; k < num_poses; ++k) {
+    Pose pose;
+    pose.translation = Eigen::Vector3d(std::cos(0.3 * k), std::sin(0.3 * k), 0.02 * k);
+    pose.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(0.3 * k, Eigen::Vector3d::UnitZ()) *
+                                       Eigen::AngleAxisd(0.1 * k, Eigen::Vector3d::UnitX()));
+    graph.poses.push_back(pose);
+  }
+  for (int k = 0; k + 1 < num_poses; ++k) {
+    Edge edge;
+    edge.from = k;
+    edge.to = k + 1;
+    edge.information = Eigen::MatrixXd::Identity(6, 6);
+    edge.kind = EdgeKind::kOdometry;
+    graph.edges.push_back(edge);
+  }
+  for (int k = 0; k < loops; ++k) {
+    Edge edge;
+    edge.from = k;
+    edge.to = k + 5;
+    edge.information = Eigen::MatrixXd::Identity(6, 6);
+    edge.kind = EdgeKind::kLoopClosure;
+    graph.edges.push_back(edge);
+  }
+  return graph;
+}
+
+bool sameEdge(const Edge& a, const Edge& b) {
+  return a.from == b.from && a.to == b.to && a.kind == b.kind && a.is_outlier == b.is_outlier &&
+         a.measurement.translation == b.measurement.translation &&
+         a.measurement.rotation.coeffs() == b.measurement.rotation.coeffs() &&
+         a.information.rows() == b.information.rows() && a.information.cols() == b.information.cols() &&
+         a.information == b.information;
+}
+
+std::vector<std::pair<int, int>> injectedPairs(const PoseGraph& original, const PoseGraph& result) {
+  std::vector<std::pair<int, int>> pairs;
+  for (std::size_t k = original.edges.size(); k < result.edges.size(); ++k) {
+    pairs.emplace_back(result.edges[k].from, result.edges[k].to);
+  }
+  return pairs;
+}
+
+// Every property §5 asks of an injected graph.
+void expectValidInjection(const PoseGraph& original, const PoseGraph& reference, const PoseGraph& result,
+                          int expected_outliers, const Eigen::VectorXd& covariance) {
+  ASSERT_EQ(result.edges.size(), original.edges.size() + expected_outliers);
+  EXPECT_EQ(result.dimension, original.dimension);
+  ASSERT_EQ(result.poses.size(), original.poses.size());
+  for (std::size_t k = 0; k < original.poses.size(); ++k) {
+    EXPECT_EQ(result.poses[k].translation, original.poses[k].translation);
+  }
+  for (std::size_t k = 0; k < original.edges.size(); ++k) {
+    EXPECT_TRUE(sameEdge(result.edges[k], original.edges[k])) << "original edge " << k << " changed";
+  }
+  const int n = static_cast<int>(original.poses.size());
+  const int dof = original.dimension == 2 ? 3 : 6;
+  const double threshold = dof == 3 ? kChi2Q95Dof3 : kChi2Q95Dof6;
+  const Eigen::MatrixXd information = covariance.cwiseInverse().asDiagonal();
+  std::set<std::pair<int, int>> seen;
+  for (std::size_t k = original.edges.size(); k < result.edges.size(); ++k) {
+    const Edge& edge = result.edges[k];
+    EXPECT_TRUE(edge.is_outlier);
+    EXPECT_EQ(edge.kind, EdgeKind::kLoopClosure);
+    EXPECT_GE(edge.to, 0);
+    EXPECT_LT(edge.from, n);
+    EXPECT_GT(edge.from, edge.to);
+    EXPECT_GE(edge.from - edge.to, 2);
+    EXPECT_EQ(edge.measurement.translation, Eigen::Vector3d::Zero());
+    EXPECT_EQ(edge.measurement.rotation.coeffs(), Eigen::Quaterniond::Identity().coeffs());
+    ASSERT_EQ(edge.information.rows(), dof);
+    ASSERT_EQ(edge.information.cols(), dof);
+    EXPECT_TRUE(edge.information.isApprox(information, 1e-12));
+    EXPECT_TRUE(seen.insert({edge.from, edge.to}).second) << "duplicate pair " << edge.from << "," << edge.to;
+    EXPECT_GE(distanceToIdentity(reference, edge.from, edge.to, covariance), threshold)
+        << "pair " << edge.from << "," << edge.to << " is consistent with the identity";
+  }
+}
+
+int countOutliers(const PoseGraph& graph) {
+  int count = 0;
+  for (const Edge& edge : graph.edges) count += edge.is_outlier ? 1 : 0;
+  return count;
+}
+
+// ---------------------------------------------------------- numOutliersFor
+
+TEST(NumOutliersFor, MatchesIrlTable) {
+  // L = CSAIL 128, Intel 895, Manhattan 2099, Sphere2500 2450 (shared/irl/README.md).
+  EXPECT_EQ(numOutliersFor(128, 10.0), 14);
+  EXPECT_EQ(numOutliersFor(895, 10.0), 99);
+  EXPECT_EQ(numOutliersFor(2099, 10.0), 233);
+  EXPECT_EQ(numOutliersFor(2450, 10.0), 272);
+  EXPECT_EQ(numOutliersFor(128, 30.0), 54);
+  EXPECT_EQ(numOutliersFor(895, 30.0), 383);
+  EXPECT_EQ(numOutliersFor(2099, 30.0), 899);
+  EXPECT_EQ(numOutliersFor(2450, 30.0), 1050);
+  EXPECT_EQ(numOutliersFor(128, 50.0), 128);
+  EXPECT_EQ(numOutliersFor(895, 50.0), 895);
+  EXPECT_EQ(numOutliersFor(2099, 50.0), 2099);
+  EXPECT_EQ(numOutliersFor(2450, 50.0), 2450);
+}
+
+TEST(NumOutliersFor, ExactQuotientsDoNotLoseOne) {
+  EXPECT_EQ(numOutliersFor(0, 50.0), 0);
+  EXPECT_EQ(numOutliersFor(100, 0.0), 0);
+  EXPECT_EQ(numOutliersFor(7, 30.0), 3);       // 210 / 70
+  EXPECT_EQ(numOutliersFor(70, 30.0), 30);     // 2100 / 70
+  EXPECT_EQ(numOutliersFor(9, 10.0), 1);       // 90 / 90
+  EXPECT_EQ(numOutliersFor(1, 90.0), 9);       // 90 / 10
+  EXPECT_EQ(numOutliersFor(3, 100.0 / 3.0), 1);  // p / (100 - p) = 1/2 -> 1.5
+  EXPECT_EQ(numOutliersFor(10, 100.0 / 3.0), 5);
+  EXPECT_EQ(numOutliersFor(1, 99.0), 99);
+  // Integer quotients that plain double arithmetic puts just below the
+  // integer (e.g. 33.6 * 249 / 66.4 = 125.99999999999999).
+  EXPECT_EQ(numOutliersFor(249, 33.6), 126);
+  EXPECT_EQ(numOutliersFor(159, 36.4), 91);
+  EXPECT_EQ(numOutliersFor(44, 64.8), 81);
+}
+
+TEST(NumOutliersFor, RejectsInvalidPercent) {
+  EXPECT_THROW(numOutliersFor(10, -1.0), std::invalid_argument);
+  EXPECT_THROW(numOutliersFor(10, 100.0), std::invalid_argument);
+  EXPECT_THROW(numOutliersFor(10, 150.0), std::invalid_argument);
+  EXPECT_THROW(numOutliersFor(10, std::numeric_limits<double>::quiet_NaN()), std::invalid_argument);
+  EXPECT_THROW(numOutliersFor(-1, 10.0), std::invalid_argument);
+}
+
+// ------------------------------------------------- defaultOutlierCovariance
+
+TEST(DefaultOutlierCovariance, PerDataset) {
+  EXPECT_EQ(defaultOutlierCovariance("csail", 2), Eigen::Vector3d(0.015, 0.01, 0.001));
+  EXPECT_EQ(defaultOutlierCovariance("CSAIL_10", 2), Eigen::Vector3d(0.015, 0.01, 0.001));
+  EXPECT_EQ(defaultOutlierCovariance("intel.g2o", 2), Eigen::Vector3d(0.0024, 0.0024, 0.0002));
+  EXPECT_EQ(defaultOutlierCovariance("INTEL", 2), Eigen::Vector3d(0.0024, 0.0024, 0.0002));
+  EXPECT_EQ(defaultOutlierCovariance("manhattanOlson3500", 2), Eigen::Vector3d(0.0224, 0.0224, 0.0224));
+  EXPECT_EQ(defaultOutlierCovariance("/data/MANHATTAN_30.irl", 2), Eigen::Vector3d(0.0224, 0.0224, 0.0224));
+  Eigen::VectorXd sphere(6);
+  sphere << 0.1, 0.1, 0.1, 0.0025, 0.0025, 0.0025;
+  EXPECT_EQ(defaultOutlierCovariance("Sphere2500", 3), sphere);
+}
+
+TEST(DefaultOutlierCovariance, UnknownNamesFallBack) {
+  EXPECT_EQ(defaultOutlierCovariance("ring", 2), Eigen::Vector3d(0.015, 0.01, 0.001));
+  EXPECT_EQ(defaultOutlierCovariance("", 2), Eigen::Vector3d(0.015, 0.01, 0.001));
+  Eigen::VectorXd sphere(6);
+  sphere << 0.1, 0.1, 0.1, 0.0025, 0.0025, 0.0025;
+  EXPECT_EQ(defaultOutlierCovariance("smallGrid3D", 3), sphere);
+  EXPECT_THROW(defaultOutlierCovariance("csail", 4), std::invalid_argument);
+}
+
+// ---------------------------------------------------- injectOutliers (hand)
+
+TEST(InjectOutliers, PlanarGraphSatisfiesAllConstraints) {
+  const PoseGraph graph = revisitingPlanarGraph(60, 30);
+  OutlierOptions options;
+  options.percent = 50.0;
+  options.seed = 42;
+  const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+  expectValidInjection(graph, graph, result, 30, defaultOutlierCovariance("csail", 2));
+  EXPECT_EQ(countOutliers(result), 30);
+}
+
+// The fixture must actually contain pairs that the gate rejects, otherwise
+// the consistency test above would pass vacuously.
+TEST(InjectOutliers, FixtureHasConsistentPairs) {
+  const PoseGraph graph = revisitingPlanarGraph(60, 30);
+  const Eigen::VectorXd covariance = defaultOutlierCovariance("csail", 2);
+  int consistent = 0;
+  int inconsistent = 0;
+  for (int i = 0; i < 60; ++i) {
+    for (int j = 0; j + 2 <= i; ++j) {
+      (distanceToIdentity(graph, i, j, covariance) < kChi2Q95Dof3 ? consistent : inconsistent) += 1;
+    }
+  }
+  EXPECT_GT(consistent, 500);
+  EXPECT_GT(inconsistent, 100);
+}
+
+TEST(InjectOutliers, SpatialGraphSatisfiesAllConstraints) {
+  const PoseGraph graph = helixGraph(80, 40);
+  OutlierOptions options;
+  options.percent = 30.0;
+  options.seed = 3;
+  const PoseGraph result = injectOutliers(graph, graph, "sphere2500", options);
+  expectValidInjection(graph, graph, result, numOutliersFor(40, 30.0), defaultOutlierCovariance("sphere", 3));
+}
+
+TEST(InjectOutliers, UsesExplicitCovariance) {
+  // Spread the poses out (2 m apart): under this wide noise the revisiting
+  // layout would have no inconsistent pair at all.
+  PoseGraph graph = revisitingPlanarGraph(60, 20);
+  for (std::size_t k = 0; k < graph.poses.size(); ++k) graph.poses[k] = planarPose(2.0 * k, 0.0, 0.0);
+  OutlierOptions options;
+  options.percent = 10.0;
+  options.covariance_diagonal = Eigen::Vector3d(0.5, 0.25, 0.125);
+  const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+  expectValidInjection(graph, graph, result, 2, options.covariance_diagonal);
+  EXPECT_TRUE(result.edges.back().information.isApprox(Eigen::Vector3d(2, 4, 8).asDiagonal().toDenseMatrix()));
+}
+
+TEST(InjectOutliers, RejectsBadCovariance) {
+  const PoseGraph graph = revisitingPlanarGraph(30, 10);
+  OutlierOptions options;
+  options.percent = 50.0;
+  options.covariance_diagonal = Eigen::VectorXd::Ones(6);
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::invalid_argument);
+  options.covariance_diagonal = Eigen::Vector3d(0.1, 0.0, 0.1);
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::invalid_argument);
+}
+
+TEST(InjectOutliers, UsesReferenceForTheGate) {
+  // Graph poses all identical (every pair would pass the gate), reference spread out.
+  PoseGraph graph = revisitingPlanarGraph(40, 20);
+  const PoseGraph reference = graph;
+  for (Pose& pose : graph.poses) pose = Pose();
+  OutlierOptions options;
+  options.percent = 50.0;
+  const PoseGraph result = injectOutliers(graph, reference, "csail", options);
+  expectValidInjection(graph, reference, result, 20, defaultOutlierCovariance("csail", 2));
+}
+
+TEST(InjectOutliers, DeterministicPerSeed) {
+  const PoseGraph graph = revisitingPlanarGraph(100, 40);
+  OutlierOptions options;
+  options.percent = 30.0;
+  options.seed = 123;
+  const PoseGraph a = injectOutliers(graph, graph, "csail", options);
+  const PoseGraph b = injectOutliers(graph, graph, "csail", options);
+  ASSERT_EQ(a.edges.size(), b.edges.size());
+  for (std::size_t k = 0; k < a.edges.size(); ++k) EXPECT_TRUE(sameEdge(a.edges[k], b.edges[k]));
+  options.seed = 124;
+  const PoseGraph c = injectOutliers(graph, graph, "csail", options);
+  ASSERT_EQ(c.edges.size(), a.edges.size());
+  EXPECT_NE(injectedPairs(graph, a), injectedPairs(graph, c));
+}
+
+TEST(InjectOutliers, ZeroPercentReturnsCopy) {
+  const PoseGraph graph = revisitingPlanarGraph(20, 5);
+  OutlierOptions options;
+  options.percent = 0.0;
+  const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+  ASSERT_EQ(result.edges.size(), graph.edges.size());
+  for (std::size_t k = 0; k < graph.edges.size(); ++k) EXPECT_TRUE(sameEdge(result.edges[k], graph.edges[k]));
+}
+
+TEST(InjectOutliers, CountsOnlyTrueLoops) {
+  // Injecting into an already spoiled graph must not grow L.
+  const PoseGraph graph = revisitingPlanarGraph(60, 20);
+  OutlierOptions options;
+  options.percent = 50.0;
+  const PoseGraph once = injectOutliers(graph, graph, "csail", options);
+  options.seed = 9;
+  const PoseGraph twice = injectOutliers(once, graph, "csail", options);
+  EXPECT_EQ(twice.edges.size(), once.edges.size() + 20);
+}
+
+TEST(InjectOutliers, RejectsBadGraphs) {
+  OutlierOptions options;
+  options.percent = 50.0;
+  // Two poses but one (artificial) loop closure: no valid pair exists.
+  PoseGraph tiny;
+  tiny.poses.resize(2);
+  Edge loop;
+  loop.from = 1;
+  loop.to = 0;
+  loop.kind = EdgeKind::kLoopClosure;
+  loop.information = Eigen::Matrix3d::Identity();
+  tiny.edges.push_back(loop);
+  EXPECT_THROW(injectOutliers(tiny, tiny, "csail", options), std::invalid_argument);
+  // Reference with a different pose count.
+  const PoseGraph graph = revisitingPlanarGraph(30, 10);
+  const PoseGraph shorter = revisitingPlanarGraph(29, 10);
+  EXPECT_THROW(injectOutliers(graph, shorter, "csail", options), std::invalid_argument);
+}
+
+TEST(InjectOutliers, ThrowsInsteadOfLoopingWhenEveryPairIsConsistent) {
+  // All poses identical: every pair agrees with the identity, none may be used.
+  PoseGraph graph = revisitingPlanarGraph(6, 3);
+  for (Pose& pose : graph.poses) pose = Pose();
+  OutlierOptions options;
+  options.percent = 50.0;
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::runtime_error);
+}
+
+// ------------------------------------------------ injectOutliers (datasets)
+
+std::string datasetPath(const std::string& name) {
+  return std::string(AGNC_PGO_SHARED_DIR) + "/datasets/" + name;
+}
+
+TEST(InjectOutliersDataset, Csail) {
+  const PoseGraph graph = readG2o(datasetPath("csail.g2o"));
+  ASSERT_EQ(graph.poses.size(), 1045u);
+  for (double percent : {10.0, 30.0, 50.0}) {
+    OutlierOptions options;
+    options.percent = percent;
+    options.seed = 2024;
+    const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+    expectValidInjection(graph, graph, result, numOutliersFor(128, percent), defaultOutlierCovariance("csail", 2));
+  }
+  OutlierOptions options;
+  options.percent = 10.0;
+  EXPECT_EQ(injectOutliers(graph, graph, "csail", options).edges.size(), graph.edges.size() + 14);
+}
+
+TEST(InjectOutliersDataset, ManhattanAgainstGroundTruth) {
+  const PoseGraph graph = readG2o(datasetPath("manhattanOlson3500.g2o"));
+  const PoseGraph truth = readG2o(datasetPath("manhattanOlson3500_gt.g2o"));
+  ASSERT_EQ(graph.poses.size(), 3500u);
+  ASSERT_EQ(truth.poses.size(), 3500u);
+  OutlierOptions options;
+  options.percent = 10.0;
+  options.seed = 7;
+  const PoseGraph result = injectOutliers(graph, truth, "manhattanOlson3500", options);
+  expectValidInjection(graph, truth, result, 233, defaultOutlierCovariance("manhattan", 2));
+  options.percent = 30.0;
+  const PoseGraph thirty = injectOutliers(graph, truth, "manhattanOlson3500", options);
+  EXPECT_EQ(thirty.edges.size(), graph.edges.size() + 899);
+  const PoseGraph again = injectOutliers(graph, truth, "manhattanOlson3500", options);
+  EXPECT_EQ(injectedPairs(graph, thirty), injectedPairs(graph, again));
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace agnc_pgo
+
+// catkin_add_gtest links gtest without gtest_main.
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
