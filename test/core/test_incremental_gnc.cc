@@ -1,0 +1,149 @@
+// The incremental engine: its contract (no solve without loop closures, bad
+// input leaves the graph intact, overrides) and end-to-end replays with
+// injected outliers in 2D (ring) and 3D (smallGrid3D).
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "agnc_pgo/core/batch_solver.h"
+#include "agnc_pgo/core/g2o_io.h"
+#include "agnc_pgo/core/incremental_gnc.h"
+#include "agnc_pgo/core/incremental_log.h"
+#include "agnc_pgo/core/outlier_injection.h"
+#include "agnc_pgo/core/replay.h"
+
+using namespace agnc_pgo::core;
+
+namespace {
+
+std::string dataset(const std::string& name) {
+  return std::string(AGNC_PGO_SHARED_DIR) + "/datasets/" + name;
+}
+
+Edge edge(int from, int to, const Pose& z, double information = 100.0) {
+  Edge e;
+  e.from = from;
+  e.to = to;
+  e.measurement = z;
+  e.information = information * Eigen::Matrix3d::Identity();
+  return e;
+}
+
+// A square loop of four poses with odometry only.
+IncrementalGnc squareEngine(const GncOptions& options) {
+  IncrementalGnc engine(2, options);
+  engine.addFirstPose(Pose::fromSE2(0, 0, 0), 1e6 * Eigen::Matrix3d::Identity());
+  for (int i = 0; i < 4; ++i) engine.addOdometry(edge(i, i + 1, Pose::fromSE2(1, 0, M_PI / 2)));
+  return engine;
+}
+
+ReplayResult replayWithOutliers(const std::string& name, const std::string& gt, double percent,
+                                const GncOptions& gnc) {
+  PoseGraph graph = readG2o(dataset(name));
+  PoseGraph reference = graph;
+  if (!gt.empty()) reference.poses = readG2o(dataset(gt)).poses;
+  else optimizeBatch(&reference);
+  OutlierOptions outliers;
+  outliers.percent = percent;
+  outliers.seed = 3;
+  const IncrementalLog log = logFromGraph(injectOutliers(graph, reference, name, outliers), name);
+  ReplayOptions options;
+  options.gnc = gnc;
+  return replay(log, options);
+}
+
+}  // namespace
+
+TEST(IncrementalGnc, OdometryNeedsNoSolve) {
+  IncrementalGnc engine = squareEngine(GncOptions());
+  const UpdateStats stats = engine.update();
+  EXPECT_EQ(stats.iterations, 0);
+  EXPECT_EQ(engine.numPoses(), 5);
+  // Composed odometry: back at the origin after four quarter turns.
+  EXPECT_NEAR(engine.pose(4).translation.norm(), 0.0, 1e-12);
+}
+
+TEST(IncrementalGnc, NewLoopClosureCostsFiveGncStepsWithAgncAndSixWithRisam) {
+  for (const auto& [kind, steps] : {std::pair<ScheduleKind, int>{ScheduleKind::kAgncFixed, 5},
+                                    std::pair<ScheduleKind, int>{ScheduleKind::kRisam, 6}}) {
+    GncOptions options;
+    options.schedule = kind;
+    IncrementalGnc engine = squareEngine(options);
+    engine.addLoopClosure(edge(4, 0, Pose::fromSE2(0, 0, 0)));
+    const UpdateStats stats = engine.update();
+    EXPECT_EQ(stats.gnc_steps, steps) << toString(kind);
+    EXPECT_TRUE(engine.loopClosures()[0].inlier);
+    EXPECT_EQ(engine.loopClosures()[0].graduation.mu, 1.0);
+  }
+}
+
+TEST(IncrementalGnc, GrossOutlierIsRejectedAndLeavesTheEstimate) {
+  IncrementalGnc engine = squareEngine(GncOptions());
+  engine.addLoopClosure(edge(4, 0, Pose::fromSE2(0, 0, 0)));
+  engine.update();
+  const Pose before = engine.pose(2);
+  engine.addLoopClosure(edge(3, 1, Pose::fromSE2(25.0, -10.0, 2.0)));
+  engine.update();
+  EXPECT_FALSE(engine.loopClosures()[1].inlier);
+  EXPECT_LT(engine.loopClosures()[1].weight, 0.01);
+  EXPECT_LT((engine.pose(2).translation - before.translation).norm(), 1e-3);
+}
+
+TEST(IncrementalGnc, BadInputIsRejectedAndTheGraphStaysIntact) {
+  IncrementalGnc engine = squareEngine(GncOptions());
+  Edge nan_edge = edge(1, 3, Pose::fromSE2(0, 0, 0));
+  nan_edge.measurement.translation.x() = std::nan("");
+  EXPECT_THROW(engine.addLoopClosure(nan_edge), std::invalid_argument);
+  EXPECT_THROW(engine.addLoopClosure(edge(1, 9, Pose())), std::invalid_argument);
+  Edge not_pd = edge(1, 3, Pose());
+  not_pd.information(2, 2) = -1.0;
+  EXPECT_THROW(engine.addLoopClosure(not_pd), std::invalid_argument);
+  Edge zero_quaternion = edge(1, 3, Pose());
+  zero_quaternion.measurement.rotation.coeffs().setZero();
+  EXPECT_THROW(engine.addLoopClosure(zero_quaternion), std::invalid_argument);
+  EXPECT_THROW(engine.addOdometry(edge(2, 7, Pose())), std::invalid_argument);
+  EXPECT_EQ(engine.numPoses(), 5);
+  EXPECT_TRUE(engine.loopClosures().empty());
+  EXPECT_EQ(engine.update().iterations, 0);
+}
+
+TEST(IncrementalGnc, ForcedOutlierChangesClassificationAndEstimate) {
+  IncrementalGnc engine = squareEngine(GncOptions());
+  engine.addLoopClosure(edge(4, 0, Pose::fromSE2(0.3, 0, 0)));
+  engine.update();
+  const Pose with_loop = engine.pose(4);
+  engine.setOverride(0, LoopOverride::kForceOutlier);
+  engine.update();
+  EXPECT_FALSE(engine.loopClosures()[0].inlier);
+  EXPECT_EQ(engine.loopClosures()[0].weight, 0.0);
+  EXPECT_GT((engine.pose(4).translation - with_loop.translation).norm(), 0.05);
+  engine.setOverride(0, LoopOverride::kAuto);
+  engine.update();
+  EXPECT_TRUE(engine.loopClosures()[0].inlier);
+}
+
+TEST(IncrementalGnc, DeterministicForTheSameInput) {
+  auto run = []() {
+    IncrementalGnc engine = squareEngine(GncOptions());
+    engine.addLoopClosure(edge(4, 0, Pose::fromSE2(0.1, 0.05, 0.01)));
+    engine.addLoopClosure(edge(3, 0, Pose::fromSE2(4.0, 4.0, 1.0)));
+    engine.update();
+    return engine.poses();
+  };
+  const Poses a = run(), b = run();
+  for (size_t i = 0; i < a.size(); ++i) EXPECT_EQ(a[i].translation, b[i].translation);
+}
+
+TEST(IncrementalGncEndToEnd, RingWithThirtyPercentOutliers) {
+  const ReplayResult result = replayWithOutliers("ring.g2o", "ring_gt.g2o", 30.0, GncOptions());
+  EXPECT_EQ(result.loop_closures.size(), 26u + 11u);  // floor(30 * 26 / 70) = 11
+  EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
+  EXPECT_GE(result.counts.recall(), 0.98);
+}
+
+TEST(IncrementalGncEndToEnd, SmallGrid3dWithTwentyPercentOutliers) {
+  const ReplayResult result = replayWithOutliers("smallGrid3D.g2o", "", 20.0, GncOptions());
+  EXPECT_EQ(result.loop_closures.size(), 173u + 43u);  // floor(20 * 173 / 80) = 43
+  EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
+  EXPECT_GE(result.counts.recall(), 0.98);
+}

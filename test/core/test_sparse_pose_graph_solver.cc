@@ -1,0 +1,102 @@
+// The engine's Gauss-Newton/CHOLMOD solver against stored optima and against
+// ceres::Solve on the same graphs.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "agnc_pgo/core/batch_solver.h"
+#include "agnc_pgo/core/g2o_io.h"
+#include "agnc_pgo/core/sparse_pose_graph_solver.h"
+
+using namespace agnc_pgo::core;
+
+namespace {
+
+std::string dataset(const std::string& name) {
+  return std::string(AGNC_PGO_SHARED_DIR) + "/datasets/" + name;
+}
+
+// Loads a graph into the solver (pose 0 held by a tight prior at its value)
+// and iterates to convergence on the whole graph.
+SparsePoseGraphSolver solveIncrementalSolver(const PoseGraph& g, int iterations) {
+  SparsePoseGraphSolver solver(g.dimension);
+  for (const Pose& p : g.poses) solver.addPose(p);
+  const int n = g.tangentDimension();
+  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, g.poses[0], 1e10 * Eigen::MatrixXd::Identity(n, n),
+                   FactorMode::kPlain);
+  for (const Edge& e : g.edges) solver.addFactor(e.from, e.to, e.measurement, e.information, FactorMode::kPlain);
+  for (int k = 0; k < iterations; ++k) {
+    const IterationResult r = solver.iterate(0);
+    if (!r.accepted || r.mean_step < 1e-10) break;
+  }
+  return solver;
+}
+
+double maxPositionDifference(const SparsePoseGraphSolver& solver, const PoseGraph& reference) {
+  double worst = 0.0;
+  for (int i = 0; i < solver.numPoses(); ++i)
+    worst = std::max(worst, (solver.pose(i).translation - reference.poses[i].translation).norm());
+  return worst;
+}
+
+}  // namespace
+
+TEST(SparsePoseGraphSolver, NoisyToyGraphReachesGtsamOptimum) {
+  const PoseGraph g = readG2o(dataset("noisyToyGraph.g2o"));
+  const PoseGraph optimum = readG2o(dataset("noisyToyGraph_optimized.g2o"));
+  const SparsePoseGraphSolver solver = solveIncrementalSolver(g, 50);
+  for (int i = 0; i < solver.numPoses(); ++i) {
+    EXPECT_NEAR(solver.pose(i).translation.x(), optimum.poses[i].translation.x(), 1e-3) << i;
+    EXPECT_NEAR(solver.pose(i).translation.y(), optimum.poses[i].translation.y(), 1e-3) << i;
+    EXPECT_NEAR(wrapAngle(solver.pose(i).yaw() - optimum.poses[i].yaw()), 0.0, 1e-3) << i;
+  }
+  // 0.5 * chi2 of the dataset README (0.1367 with pose 0 fixed).
+  EXPECT_NEAR(2.0 * solver.totalCost(), 0.1367, 1e-3);
+}
+
+TEST(SparsePoseGraphSolver, AgreesWithCeresOnTwoAndThreeDimensionalGraphs) {
+  for (const std::string name : {"pose2example.g2o", "tinyGrid3D.g2o", "smallGrid3D.g2o", "pose3example.g2o"}) {
+    PoseGraph g = readG2o(dataset(name));
+    const SparsePoseGraphSolver solver = solveIncrementalSolver(g, 100);
+    optimizeBatch(&g);
+    EXPECT_LT(maxPositionDifference(solver, g), 1e-5) << name;
+  }
+}
+
+TEST(SparsePoseGraphSolver, WindowHoldsOlderPosesFixed) {
+  const PoseGraph g = readG2o(dataset("pose2example.g2o"));
+  SparsePoseGraphSolver solver(2);
+  for (const Pose& p : g.poses) solver.addPose(p);
+  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, g.poses[0], 1e6 * Eigen::Matrix3d::Identity(),
+                   FactorMode::kPlain);
+  for (const Edge& e : g.edges) solver.addFactor(e.from, e.to, e.measurement, e.information, FactorMode::kPlain);
+  const IterationResult r = solver.iterate(5);
+  EXPECT_TRUE(r.accepted);
+  EXPECT_LE(r.cost_after, r.cost_before);
+  for (int i = 0; i < 5; ++i) EXPECT_EQ(solver.pose(i).translation, g.poses[i].translation) << i;
+}
+
+TEST(SparsePoseGraphSolver, DisabledFactorHasNoWeightAndNoInfluence) {
+  SparsePoseGraphSolver solver(2);
+  solver.addPose(Pose::fromSE2(0, 0, 0));
+  solver.addPose(Pose::fromSE2(1, 0, 0));
+  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), Eigen::Matrix3d::Identity() * 1e6,
+                   FactorMode::kPlain);
+  solver.addFactor(0, 1, Pose::fromSE2(1, 0, 0), Eigen::Matrix3d::Identity(), FactorMode::kPlain);
+  const int bad = solver.addFactor(0, 1, Pose::fromSE2(5, 0, 0), Eigen::Matrix3d::Identity(), FactorMode::kDisabled);
+  EXPECT_EQ(solver.weight(bad), 0.0);
+  solver.iterate(0);
+  EXPECT_NEAR(solver.pose(1).translation.x(), 1.0, 1e-9);
+  EXPECT_NEAR(solver.whitenedNorm(bad), 4.0, 1e-9);
+}
+
+TEST(SparsePoseGraphSolver, RejectsUnknownPosesAndBadInformation) {
+  SparsePoseGraphSolver solver(2);
+  solver.addPose(Pose());
+  EXPECT_THROW(solver.addFactor(0, 3, Pose(), Eigen::Matrix3d::Identity(), FactorMode::kPlain),
+               std::invalid_argument);
+  solver.addPose(Pose());
+  EXPECT_THROW(solver.addFactor(0, 1, Pose(), -Eigen::Matrix3d::Identity(), FactorMode::kPlain),
+               std::invalid_argument);
+  EXPECT_EQ(solver.numFactors(), 0);
+}
