@@ -1,0 +1,74 @@
+#include "agnc_pgo/core/pose.h"
+
+#include <cmath>
+
+namespace agnc_pgo {
+namespace core {
+
+Pose Pose::fromSE2(double x, double y, double yaw) {
+  Pose pose;
+  pose.translation = Eigen::Vector3d(x, y, 0.0);
+  // Wrapping first keeps w >= 0, so equal headings (e.g. 6.28 and -0.003)
+  // give bit-identical quaternions and SE(2) poses round-trip through text.
+  pose.rotation = Eigen::Quaterniond(Eigen::AngleAxisd(wrapAngle(yaw), Eigen::Vector3d::UnitZ()));
+  return pose;
+}
+
+Pose Pose::fromXYZRPY(double x, double y, double z, double rx, double ry, double rz) {
+  Pose pose;
+  pose.translation = Eigen::Vector3d(x, y, z);
+  pose.rotation = Eigen::AngleAxisd(rz, Eigen::Vector3d::UnitZ()) *
+                  Eigen::AngleAxisd(ry, Eigen::Vector3d::UnitY()) *
+                  Eigen::AngleAxisd(rx, Eigen::Vector3d::UnitX());
+  pose.rotation.normalize();
+  return pose;
+}
+
+double Pose::yaw() const {
+  // Z-Y-X Euler yaw; for a pure rotation about z this is the SE(2) heading.
+  const Eigen::Quaterniond& q = rotation;
+  const double siny = 2.0 * (q.w() * q.z() + q.x() * q.y());
+  const double cosy = 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z());
+  return wrapAngle(std::atan2(siny, cosy));
+}
+
+Pose Pose::inverse() const {
+  Pose inv;
+  inv.rotation = rotation.conjugate();
+  inv.translation = -(inv.rotation * translation);
+  return inv;
+}
+
+Pose Pose::operator*(const Pose& other) const {
+  Pose out;
+  out.translation = translation + rotation * other.translation;
+  // Renormalise so long odometry chains do not drift off the unit sphere.
+  out.rotation = (rotation * other.rotation).normalized();
+  return out;
+}
+
+double wrapAngle(double angle) {
+  // std::remainder maps to [-pi, pi]; move the closed lower end to +pi.
+  double wrapped = std::remainder(angle, 2.0 * M_PI);
+  if (wrapped <= -M_PI) wrapped += 2.0 * M_PI;
+  return wrapped;
+}
+
+Eigen::VectorXd relativePoseError(int dimension, const Pose& a, const Pose& b, const Pose& z) {
+  const Pose e = z.inverse() * (a.inverse() * b);
+  if (dimension == 2) {
+    Eigen::VectorXd r(3);
+    r << e.translation.x(), e.translation.y(), wrapAngle(b.yaw() - a.yaw() - z.yaw());
+    return r;
+  }
+  // q and -q are the same rotation; w >= 0 picks the small-angle
+  // representative so the residual is continuous around zero.
+  const double sign = e.rotation.w() < 0.0 ? -1.0 : 1.0;
+  Eigen::VectorXd r(6);
+  r.head<3>() = e.translation;
+  r.tail<3>() = 2.0 * sign * e.rotation.vec();
+  return r;
+}
+
+}  // namespace core
+}  // namespace agnc_pgo

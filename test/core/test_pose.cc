@@ -1,0 +1,167 @@
+#include "agnc_pgo/core/pose.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace agnc_pgo {
+namespace core {
+namespace {
+
+constexpr double kTol = 1e-12;
+
+Eigen::Matrix4d homogeneous(const Pose& p) {
+  Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+  m.topLeftCorner<3, 3>() = p.rotation.toRotationMatrix();
+  m.topRightCorner<3, 1>() = p.translation;
+  return m;
+}
+
+void expectPoseNear(const Pose& expected, const Pose& actual, double tol = kTol) {
+  EXPECT_TRUE(expected.translation.isApprox(actual.translation, tol) ||
+              (expected.translation - actual.translation).norm() < tol)
+      << expected.translation.transpose() << " vs " << actual.translation.transpose();
+  // q and -q are the same rotation: compare rotation matrices.
+  const Eigen::Matrix3d difference =
+      expected.rotation.toRotationMatrix() - actual.rotation.toRotationMatrix();
+  EXPECT_LT(difference.norm(), tol);
+}
+
+TEST(Pose, CompositionMatchesHomogeneousMatrices) {
+  const Pose a = Pose::fromXYZRPY(1.0, -2.0, 0.5, 0.3, -0.7, 2.1);
+  const Pose b = Pose::fromXYZRPY(-0.4, 0.9, 3.0, -1.2, 0.2, -2.8);
+  const Eigen::Matrix4d expected = homogeneous(a) * homogeneous(b);
+  EXPECT_LT((homogeneous(a * b) - expected).norm(), kTol);
+  EXPECT_LT((homogeneous(a.inverse()) - homogeneous(a).inverse()).norm(), kTol);
+}
+
+TEST(Pose, InverseAndCompositionRoundTrip) {
+  const Pose a = Pose::fromXYZRPY(1.0, -2.0, 0.5, 0.3, -0.7, 2.1);
+  const Pose b = Pose::fromXYZRPY(-0.4, 0.9, 3.0, -1.2, 0.2, -2.8);
+  expectPoseNear(Pose::identity(), a * a.inverse());
+  expectPoseNear(Pose::identity(), a.inverse() * a);
+  expectPoseNear(a, a.inverse().inverse());
+  expectPoseNear(a, (a * b) * b.inverse());
+  expectPoseNear(b, a.inverse() * (a * b));
+  EXPECT_NEAR((a * b).rotation.norm(), 1.0, 1e-15);
+
+  const Pose p = Pose::fromSE2(3.0, -1.0, 2.5);
+  const Pose q = Pose::fromSE2(-0.5, 2.0, -1.9);
+  const Pose pq = p * q;
+  EXPECT_NEAR(pq.yaw(), wrapAngle(2.5 - 1.9), kTol);
+  EXPECT_NEAR(pq.translation.x(), 3.0 + std::cos(2.5) * -0.5 - std::sin(2.5) * 2.0, kTol);
+  EXPECT_NEAR(pq.translation.y(), -1.0 + std::sin(2.5) * -0.5 + std::cos(2.5) * 2.0, kTol);
+  EXPECT_EQ(pq.translation.z(), 0.0);
+}
+
+TEST(Pose, FromXYZRPYMatchesExplicitRotationMatrix) {
+  const double rx = 0.3, ry = -0.7, rz = 2.1;
+  Eigen::Matrix3d rot_x, rot_y, rot_z;
+  rot_x << 1, 0, 0, 0, std::cos(rx), -std::sin(rx), 0, std::sin(rx), std::cos(rx);
+  rot_y << std::cos(ry), 0, std::sin(ry), 0, 1, 0, -std::sin(ry), 0, std::cos(ry);
+  rot_z << std::cos(rz), -std::sin(rz), 0, std::sin(rz), std::cos(rz), 0, 0, 0, 1;
+  const Pose p = Pose::fromXYZRPY(1.0, 2.0, 3.0, rx, ry, rz);
+  EXPECT_LT((p.rotation.toRotationMatrix() - rot_z * rot_y * rot_x).norm(), kTol);
+  EXPECT_EQ(p.translation, Eigen::Vector3d(1.0, 2.0, 3.0));
+  EXPECT_NEAR(p.yaw(), rz, kTol);  // Z-Y-X yaw
+}
+
+TEST(Pose, FromSE2IsRotationAboutZ) {
+  const Pose p = Pose::fromSE2(1.5, -2.5, 0.4);
+  EXPECT_EQ(p.translation, Eigen::Vector3d(1.5, -2.5, 0.0));
+  EXPECT_NEAR(p.rotation.w(), std::cos(0.2), kTol);
+  EXPECT_NEAR(p.rotation.z(), std::sin(0.2), kTol);
+  EXPECT_EQ(p.rotation.x(), 0.0);
+  EXPECT_EQ(p.rotation.y(), 0.0);
+  EXPECT_NEAR(p.yaw(), 0.4, kTol);
+  // Headings outside (-pi, pi] are the same rotation and read back wrapped.
+  EXPECT_NEAR(Pose::fromSE2(0, 0, 6.282233).yaw(), 6.282233 - 2 * M_PI, kTol);
+  EXPECT_GE(Pose::fromSE2(0, 0, 6.282233).rotation.w(), 0.0);
+  EXPECT_NEAR(Pose::fromSE2(0, 0, -3.5).yaw(), -3.5 + 2 * M_PI, kTol);
+}
+
+TEST(Pose, WrapAngleRange) {
+  EXPECT_EQ(wrapAngle(0.5), 0.5);
+  EXPECT_EQ(wrapAngle(-0.5), -0.5);
+  EXPECT_EQ(wrapAngle(M_PI), M_PI);
+  EXPECT_EQ(wrapAngle(-M_PI), M_PI);  // (-pi, pi]: the lower end maps up
+  EXPECT_NEAR(wrapAngle(3 * M_PI), M_PI, 1e-12);
+  EXPECT_NEAR(wrapAngle(-7.0), -7.0 + 2 * M_PI, kTol);
+  EXPECT_NEAR(wrapAngle(7.0), 7.0 - 2 * M_PI, kTol);
+  EXPECT_NEAR(wrapAngle(100.0), 100.0 - 32 * M_PI, 1e-12);
+}
+
+TEST(Pose, RelativePoseErrorZeroForConsistentPoses) {
+  const Pose a2 = Pose::fromSE2(1.0, 2.0, 3.0);
+  const Pose z2 = Pose::fromSE2(0.5, -0.3, 0.9);  // b's heading crosses +-pi
+  EXPECT_LT(relativePoseError(2, a2, a2 * z2, z2).norm(), kTol);
+
+  const Pose a3 = Pose::fromXYZRPY(1.0, -2.0, 0.5, 0.3, -0.7, 2.1);
+  const Pose z3 = Pose::fromXYZRPY(0.2, 0.1, -0.4, 1.0, 0.5, -2.9);
+  const Eigen::VectorXd e3 = relativePoseError(3, a3, a3 * z3, z3);
+  ASSERT_EQ(e3.size(), 6);
+  EXPECT_LT(e3.norm(), kTol);
+}
+
+TEST(Pose, RelativePoseErrorKnownOffset2D) {
+  // a = identity, z = 1 m ahead turned 90 deg, b is 0.1 m further left and
+  // 0.05 rad more turned: in z's frame the offset is 0.1 m along +x.
+  const Pose z = Pose::fromSE2(1.0, 0.0, M_PI / 2);
+  const Pose b = Pose::fromSE2(1.0, 0.1, M_PI / 2 + 0.05);
+  const Eigen::VectorXd e = relativePoseError(2, Pose::identity(), b, z);
+  ASSERT_EQ(e.size(), 3);
+  EXPECT_NEAR(e(0), 0.1, kTol);
+  EXPECT_NEAR(e(1), 0.0, kTol);
+  EXPECT_NEAR(e(2), 0.05, kTol);
+
+  // A perturbation applied in z's frame is recovered exactly.
+  const Pose a = Pose::fromSE2(-3.0, 4.0, 2.8);
+  const Pose z2 = Pose::fromSE2(0.7, 0.2, 0.6);
+  const Eigen::VectorXd e2 = relativePoseError(2, a, a * z2 * Pose::fromSE2(0.01, -0.02, 0.03), z2);
+  EXPECT_NEAR(e2(0), 0.01, kTol);
+  EXPECT_NEAR(e2(1), -0.02, kTol);
+  EXPECT_NEAR(e2(2), 0.03, kTol);
+
+  // The angle is wrapped: headings 3.0 and -3.0 differ by 2*pi - 6.
+  const Eigen::VectorXd wrapped =
+      relativePoseError(2, Pose::fromSE2(0, 0, 3.0), Pose::fromSE2(0, 0, -3.0), Pose::identity());
+  EXPECT_NEAR(wrapped(2), 2 * M_PI - 6.0, kTol);
+}
+
+TEST(Pose, RelativePoseErrorKnownOffset3D) {
+  Pose b;
+  b.translation = Eigen::Vector3d(1.0, 2.0, 3.0);
+  b.rotation = Eigen::AngleAxisd(0.2, Eigen::Vector3d::UnitX());
+  Eigen::VectorXd e = relativePoseError(3, Pose::identity(), b, Pose::identity());
+  ASSERT_EQ(e.size(), 6);
+  Eigen::VectorXd expected(6);
+  expected << 1.0, 2.0, 3.0, 2.0 * std::sin(0.1), 0.0, 0.0;
+  EXPECT_LT((e - expected).norm(), kTol);
+
+  // A rotation of 2*pi - 0.2 about x is -0.2 about x: w >= 0 picks the small
+  // residual, not the one near 2.
+  b.rotation = Eigen::AngleAxisd(2 * M_PI - 0.2, Eigen::Vector3d::UnitX());
+  ASSERT_LT(b.rotation.w(), 0.0);
+  e = relativePoseError(3, Pose::identity(), b, Pose::identity());
+  expected << 1.0, 2.0, 3.0, -2.0 * std::sin(0.1), 0.0, 0.0;
+  EXPECT_LT((e - expected).norm(), kTol);
+
+  // A perturbation applied in z's frame comes back as [t, 2 vec(q)].
+  const Pose a = Pose::fromXYZRPY(1.0, -2.0, 0.5, 0.3, -0.7, 2.1);
+  const Pose z = Pose::fromXYZRPY(0.2, 0.1, -0.4, 1.0, 0.5, -2.9);
+  const Pose delta = Pose::fromXYZRPY(0.01, -0.02, 0.03, 0.004, -0.005, 0.006);
+  e = relativePoseError(3, a, a * z * delta, z);
+  expected << 0.01, -0.02, 0.03, 2.0 * delta.rotation.x(), 2.0 * delta.rotation.y(),
+      2.0 * delta.rotation.z();
+  EXPECT_LT((e - expected).norm(), kTol);
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace agnc_pgo
+
+// Own main: links whether or not the build also provides gtest_main.
+int main(int argc, char** argv) {
+  testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
