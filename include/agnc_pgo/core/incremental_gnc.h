@@ -73,6 +73,14 @@ class IncrementalGnc {
   // the current estimate (O(loop closures)).
   void classifyAll();
 
+  // Restores a saved state without solving (loading a saved graph, rolling
+  // back a failed update): the estimate (one pose per node) and, in
+  // loopClosures() order, each loop closure's graduation state and override.
+  // Clears pending work and reclassifies. Throws std::invalid_argument on a
+  // size mismatch. (Implemented in incremental_gnc_restore.cc.)
+  void restore(const Poses& estimate, const std::vector<GraduationState>& graduation,
+               const std::vector<LoopOverride>& overrides);
+
   int numPoses() const { return solver_.numPoses(); }
   Pose pose(int id) const { return solver_.pose(id); }
   Poses poses() const;

@@ -1,0 +1,114 @@
+// The back-end's state: the core IncrementalGnc engine plus what ROS adds
+// (keyframe stamps and odometry poses, loop-closure metadata, held loop
+// closures, counters). Owned and used by the worker thread only; no locking.
+#pragma once
+
+#include <deque>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <ros/time.h>
+
+#include "agnc_pgo/core/incremental_gnc.h"
+#include "agnc_pgo/ros/backend_parameters.h"
+#include "agnc_pgo/ros/graph_io.h"
+#include "agnc_pgo/ros/graph_snapshot.h"
+#include "agnc_pgo/ros/keyframe_selector.h"
+#include "agnc_pgo/ros/loop_closure_matcher.h"
+
+namespace agnc_pgo {
+namespace ros_backend {
+
+// Validated inputs (the callbacks checked NaN, quaternions, covariances).
+struct OdometryInput {
+  ros::Time stamp;
+  core::Pose pose;                 // odom frame, already in the graph's dimension
+  Eigen::MatrixXd information;     // core order; empty = parameters
+};
+
+struct LoopClosureInput {
+  ros::Time from_stamp, to_stamp;
+  core::Pose measurement;          // already in the graph's dimension
+  Eigen::MatrixXd information;     // core order
+  std::string source;
+  double score = 0.0;
+  double received = 0.0;           // steady-clock seconds, for latency
+};
+
+struct Counters {
+  unsigned odometry_messages = 0, loop_closure_messages = 0;
+  unsigned rejected_odometry = 0, rejected_loop_closures = 0, dropped_loop_closures = 0;
+  unsigned failed_updates = 0;
+  unsigned last_gnc_steps = 0;
+  double last_update_ms = 0.0;
+  std::string last_warning;
+};
+
+class BackendGraph {
+ public:
+  explicit BackendGraph(const BackendParameters& parameters);
+
+  // Returns a warning (empty = accepted). `keyframe` tells whether a node was added.
+  std::string addOdometry(const OdometryInput& input, bool* keyframe);
+  // Adds the loop closure, holds it (endpoints not seen yet), or returns why
+  // it was rejected. `added` tells whether it entered the engine.
+  std::string addLoopClosure(const LoopClosureInput& input, bool* added);
+  // Retries held loop closures; drops those older than the hold time
+  // (returns one warning per drop). Received times of added ones go to `added`.
+  std::vector<std::string> retryHeld(double now, std::vector<double>* added);
+
+  // Runs the engine if anything is pending. On an exception or a non-finite
+  // estimate, rolls back to the last good estimate (dropping the loop
+  // closures added since) and returns false with `error` set.
+  bool update(core::UpdateStats* stats, std::string* error);
+  bool optimize(core::UpdateStats* stats, std::string* error);
+  void setOverride(int index, core::LoopOverride mode);  // throws std::invalid_argument
+  void reset();
+
+  SavedGraph save() const;
+  // Replaces the graph (throws, leaving it intact, if `saved` is inconsistent).
+  void load(const SavedGraph& saved);
+
+  GraphSnapshotPtr snapshot(bool with_edges) const;
+  core::Pose mapToOdom() const;
+
+  int numNodes() const { return engine_ ? engine_->numPoses() : 0; }
+  int numLoopClosures() const { return engine_ ? static_cast<int>(engine_->loopClosures().size()) : 0; }
+  int pendingLoopClosures() const { return engine_ ? engine_->pendingLoopClosures() : 0; }
+  int heldLoopClosures() const { return static_cast<int>(held_.size()); }
+  const core::IncrementalGnc* engine() const { return engine_.get(); }
+  const std::vector<ros::Time>& stamps() const { return matcher_.stamps(); }
+
+ private:
+  struct LoopMeta {
+    ros::Time from_stamp, to_stamp;
+    std::string source;
+    double score = 0.0;
+  };
+  struct LastGood {
+    core::Poses estimate;
+    std::vector<core::GraduationState> graduation;
+    std::vector<core::LoopOverride> modes;
+  };
+
+  std::string tryAddLoop(const LoopClosureInput& input, bool* added, bool* hold);
+  void rememberGood();
+  void rollBack();
+  std::unique_ptr<core::IncrementalGnc> build(const SavedGraph& saved) const;
+
+  BackendParameters parameters_;
+  Eigen::MatrixXd prior_information_;
+  Eigen::MatrixXd odometry_information_;
+  std::unique_ptr<core::IncrementalGnc> engine_;
+  KeyframeSelector selector_;
+  LoopClosureMatcher matcher_;
+  core::Poses odom_poses_;
+  std::vector<LoopMeta> loop_meta_;
+  std::deque<LoopClosureInput> held_;
+  Eigen::MatrixXd accumulated_covariance_;  // message covariances of skipped odometry
+  LastGood last_good_;
+};
+
+}  // namespace ros_backend
+}  // namespace agnc_pgo

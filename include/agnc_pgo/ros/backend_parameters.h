@@ -1,0 +1,62 @@
+// Parameters of the ROS back-end: read once at start-up from the private
+// node handle into plain structs, validated, and logged (config/default.yaml
+// documents every one of them).
+#pragma once
+
+#include <array>
+#include <string>
+
+#include "agnc_pgo/core/gnc_options.h"
+
+namespace ros {
+class NodeHandle;
+}
+
+namespace agnc_pgo {
+namespace ros_backend {
+
+// Six standard deviations in REP 103 order: x y z [m], roll pitch yaw [rad].
+using Sigmas = std::array<double, 6>;
+
+struct KeyframeParameters {
+  double translation = 0.0;  // [m]   new keyframe after this much motion (0 = criterion off)
+  double rotation = 0.0;     // [rad] ... or this much rotation (0 = off)
+  double interval = 0.0;     // [s]   ... or this much time (0 = off); all off = every message
+};
+
+struct BackendParameters {
+  int dimension = 2;                       // 2 (SE(2): x y yaw) or 3 (SE(3))
+  std::string map_frame = "map";
+  std::string odom_frame = "odom";
+  KeyframeParameters keyframes;
+  Sigmas odometry_sigmas{{0.05, 0.05, 0.05, 0.01, 0.01, 0.02}};
+  bool use_odometry_covariance = false;    // take Odometry.pose.covariance as the motion's covariance
+  Sigmas loop_closure_sigmas{{0.1, 0.1, 0.1, 0.02, 0.02, 0.05}};  // for all-zero LoopClosure.covariance
+  double prior_sigma = 1e-4;               // gauge on the first keyframe (all six components)
+  double stamp_tolerance = 0.005;          // [s] loop-closure stamp -> keyframe matching
+  double loop_closure_hold_time = 2.0;     // [s] wait for not-yet-seen keyframes, then drop
+  core::GncOptions gnc;
+  int optimize_iterations = 20;            // ~optimize service: max Gauss-Newton iterations
+  double tf_rate = 20.0;                   // [Hz] map -> odom broadcast
+  double tf_future_tolerance = 0.1;        // [s]  map -> odom stamps are future-dated by this
+  double visualization_rate = 2.0;         // [Hz] max rate of ~markers and ~pose_graph
+  double status_rate = 1.0;                // [Hz] ~status heartbeat (also after every update)
+  bool publish_pose_graph = true;
+  double marker_node_scale = 0.15;         // [m]
+  double marker_line_width = 0.05;         // [m]
+  int queue_size = 1000;                   // subscriber queues
+  int max_queue = 100000;                  // worker queue bound (excess messages are rejected)
+};
+
+// Throws std::invalid_argument naming the parameter and the accepted range.
+void validate(const BackendParameters& p);
+
+// Reads every parameter (defaults above when absent), then validates.
+// Throws std::invalid_argument for a wrong type or an invalid value.
+BackendParameters readParameters(const ros::NodeHandle& private_nh);
+
+// Multi-line human-readable dump for the start-up log.
+std::string describe(const BackendParameters& p);
+
+}  // namespace ros_backend
+}  // namespace agnc_pgo

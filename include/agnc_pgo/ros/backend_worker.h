@@ -1,0 +1,122 @@
+// The worker thread: the only owner of the BackendGraph. ROS callbacks push
+// validated inputs and commands into its queue; it processes them in order,
+// runs the engine on every batch of new loop closures, and hands snapshots to
+// the output (publishers). Service calls wait for their command's result.
+#pragma once
+
+#include <condition_variable>
+#include <deque>
+#include <functional>
+#include <future>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "agnc_pgo/ros/backend_graph.h"
+
+namespace agnc_pgo {
+namespace ros_backend {
+
+struct StatusInfo {
+  int nodes = 0, odometry_edges = 0, loop_closures = 0, inliers = 0, outliers = 0, graduating = 0;
+  int held = 0;
+  Counters counters;
+  ros::Time last_update;
+  long total_gnc_steps = 0, total_iterations = 0;
+  double latency_p50 = 0, latency_p95 = 0, latency_max = 0;
+  bool paused = false;
+};
+
+// Implemented by the nodelet (publishers). Called from the worker thread.
+class BackendOutput {
+ public:
+  virtual ~BackendOutput() = default;
+  virtual void publishEstimate(const GraphSnapshot& nodes_only) = 0;  // ~path
+  virtual void publishGraph(const GraphSnapshot& full) = 0;           // ~markers, ~pose_graph
+  virtual void publishStatus(const StatusInfo& status) = 0;           // ~status
+};
+
+struct CommandResult {
+  bool success = false;
+  std::string message;
+};
+
+class BackendWorker {
+ public:
+  BackendWorker(const BackendParameters& parameters, BackendOutput* output);
+  ~BackendWorker();
+  BackendWorker(const BackendWorker&) = delete;
+  BackendWorker& operator=(const BackendWorker&) = delete;
+
+  void start();
+  void stop();
+
+  // From callbacks (any thread). Inputs are validated already.
+  void enqueueOdometry(const OdometryInput& input);
+  void enqueueLoopClosure(const LoopClosureInput& input);
+  void rejectOdometry(const std::string& reason);
+  void rejectLoopClosure(const std::string& reason);
+
+  // Services: run on the worker thread, wait for the result.
+  CommandResult saveGraph(const std::string& filename);
+  CommandResult loadGraph(const std::string& filename);
+  CommandResult saveTrajectory(const std::string& filename);
+  CommandResult optimize();
+  CommandResult reset();
+  CommandResult setPaused(bool paused);
+  CommandResult setLoopClosureStatus(int index, core::LoopOverride mode);
+
+  // Latest map -> odom (thread-safe).
+  core::Pose mapToOdom() const;
+  // Seconds (steady clock) used for latency stamps.
+  static double now();
+
+ private:
+  struct Item {
+    enum class Kind { kOdometry, kLoopClosure, kCommand } kind;
+    OdometryInput odometry;
+    LoopClosureInput loop;
+    std::function<CommandResult()> command;
+    std::shared_ptr<std::promise<CommandResult>> result;
+  };
+
+  CommandResult call(std::function<CommandResult()> command);
+  void push(Item item);
+  void run();
+  void processBatch(std::deque<Item>* batch);
+  void solve();
+  void publish(bool force_graph);
+  void publishStatus();
+  StatusInfo status() const;
+  void warn(const std::string& message);
+
+  BackendParameters parameters_;
+  BackendOutput* output_;
+  BackendGraph graph_;  // worker thread only
+
+  mutable std::mutex queue_mutex_;
+  std::condition_variable queue_cv_;
+  std::deque<Item> queue_;
+  bool stopping_ = false;
+  std::thread thread_;
+
+  mutable std::mutex counters_mutex_;  // counters written by callbacks and the worker
+  Counters counters_;
+
+  mutable std::mutex map_to_odom_mutex_;
+  core::Pose map_to_odom_;
+
+  // Worker thread only.
+  bool paused_ = false;
+  bool graph_dirty_ = false;
+  bool needs_update_ = false;
+  double last_graph_publish_ = -1e9;
+  double last_status_publish_ = -1e9;
+  ros::Time last_update_;
+  std::vector<double> pending_latency_;  // receive times of loop closures not yet published
+  std::vector<double> latencies_ms_;
+};
+
+}  // namespace ros_backend
+}  // namespace agnc_pgo

@@ -1,0 +1,33 @@
+// IncrementalGnc::restore: puts back a saved estimate and loop-closure state
+// (used by the ROS back-end to load graphs and to roll back failed updates).
+#include <stdexcept>
+#include <string>
+
+#include "agnc_pgo/core/incremental_gnc.h"
+
+namespace agnc_pgo {
+namespace core {
+
+void IncrementalGnc::restore(const Poses& estimate, const std::vector<GraduationState>& graduation,
+                             const std::vector<LoopOverride>& overrides) {
+  if (static_cast<int>(estimate.size()) != numPoses())
+    throw std::invalid_argument("restore: " + std::to_string(estimate.size()) + " poses for a graph of " +
+                                std::to_string(numPoses()));
+  if (graduation.size() != loops_.size() || overrides.size() != loops_.size())
+    throw std::invalid_argument("restore: loop-closure state for " + std::to_string(graduation.size()) +
+                                " of " + std::to_string(loops_.size()) + " loop closures");
+  for (int i = 0; i < numPoses(); ++i) solver_.setPose(i, estimate[i]);
+  for (size_t k = 0; k < loops_.size(); ++k) {
+    LoopClosure& loop = loops_[k];
+    loop.override_mode = overrides[k];
+    applyOverride(&loop);  // sets the factor mode, clears graduating
+    loop.graduation = graduation[k];
+    solver_.setMu(loop.factor, loop.graduation.mu);
+  }
+  pending_.clear();
+  needs_restart_.clear();
+  classifyAll();
+}
+
+}  // namespace core
+}  // namespace agnc_pgo

@@ -1,0 +1,345 @@
+#include "agnc_pgo/ros/backend_graph.h"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <stdexcept>
+
+#include "agnc_pgo/ros/conversions.h"
+
+namespace agnc_pgo {
+namespace ros_backend {
+namespace {
+
+std::string describeStamp(const ros::Time& t) {
+  std::ostringstream s;
+  s.precision(6);
+  s << std::fixed << t.toSec();
+  return s.str();
+}
+
+bool finitePoses(const core::IncrementalGnc& engine) {
+  for (int i = 0; i < engine.numPoses(); ++i) {
+    const core::Pose p = engine.pose(i);
+    if (!p.translation.allFinite() || !p.rotation.coeffs().allFinite()) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+BackendGraph::BackendGraph(const BackendParameters& parameters)
+    : parameters_(parameters),
+      selector_(parameters.keyframes),
+      matcher_(parameters.stamp_tolerance) {
+  const int t = parameters_.dimension == 2 ? 3 : 6;
+  prior_information_ = Eigen::MatrixXd::Identity(t, t) / (parameters_.prior_sigma * parameters_.prior_sigma);
+  odometry_information_ = informationFromSigmas(parameters_.odometry_sigmas, parameters_.dimension);
+  reset();
+}
+
+void BackendGraph::reset() {
+  engine_ = std::make_unique<core::IncrementalGnc>(parameters_.dimension, parameters_.gnc);
+  selector_.clear();
+  matcher_.clear();
+  odom_poses_.clear();
+  loop_meta_.clear();
+  held_.clear();
+  accumulated_covariance_.resize(0, 0);
+  last_good_ = LastGood();
+}
+
+std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe) {
+  *keyframe = false;
+  const KeyframeSelector::Decision decision = selector_.consider(input.stamp, input.pose);
+  if (decision == KeyframeSelector::Decision::kStampNotIncreasing)
+    return "odometry stamp " + describeStamp(input.stamp) + " does not increase (last " +
+           describeStamp(selector_.lastStamp()) + ")";
+
+  // Covariance of the motion since the last keyframe (messages' covariance mode).
+  if (input.information.size() > 0) {
+    const Eigen::MatrixXd cov = covarianceOf(input.information);
+    if (accumulated_covariance_.size() == 0) accumulated_covariance_ = cov;
+    else accumulated_covariance_ += cov;  // first-order: skipped messages' covariances add up
+  }
+  if (decision == KeyframeSelector::Decision::kSkip) return "";
+
+  try {
+    if (engine_->numPoses() == 0) {
+      engine_->addFirstPose(input.pose, prior_information_);
+    } else {
+      core::Edge edge;
+      edge.from = engine_->numPoses() - 1;
+      edge.to = engine_->numPoses();
+      edge.measurement = odom_poses_.back().inverse() * input.pose;
+      edge.kind = core::EdgeKind::kOdometry;
+      edge.information = accumulated_covariance_.size() > 0 ? covarianceOf(accumulated_covariance_)
+                                                            : odometry_information_;
+      engine_->addOdometry(edge);
+    }
+  } catch (const std::exception& e) {
+    // The engine left the graph unchanged; forget this message as a keyframe.
+    if (!odom_poses_.empty()) selector_.resetTo(matcher_.stamps().back(), odom_poses_.back());
+    else selector_.clear();
+    accumulated_covariance_.resize(0, 0);
+    return std::string("odometry rejected by the engine: ") + e.what();
+  }
+  accumulated_covariance_.resize(0, 0);
+  matcher_.add(input.stamp);
+  odom_poses_.push_back(input.pose);
+  last_good_.estimate.push_back(engine_->pose(engine_->numPoses() - 1));
+  *keyframe = true;
+  return "";
+}
+
+std::string BackendGraph::tryAddLoop(const LoopClosureInput& input, bool* added, bool* hold) {
+  *added = false;
+  *hold = false;
+  const LoopClosureMatcher::Match from = matcher_.match(input.from_stamp);
+  const LoopClosureMatcher::Match to = matcher_.match(input.to_stamp);
+  using S = LoopClosureMatcher::Status;
+  if (from.status == S::kUnknown || to.status == S::kUnknown) {
+    const ros::Time& bad = from.status == S::kUnknown ? input.from_stamp : input.to_stamp;
+    return "loop closure stamp " + describeStamp(bad) + " matches no keyframe within " +
+           std::to_string(parameters_.stamp_tolerance) + " s";
+  }
+  if (from.status == S::kNotYet || to.status == S::kNotYet) {
+    *hold = true;
+    return "";
+  }
+  if (from.id == to.id)
+    return "loop closure joins keyframe " + std::to_string(from.id) + " to itself";
+  core::Edge edge;
+  edge.from = from.id;
+  edge.to = to.id;
+  edge.measurement = input.measurement;
+  edge.information = input.information.size() > 0
+                         ? input.information
+                         : informationFromSigmas(parameters_.loop_closure_sigmas, parameters_.dimension);
+  edge.kind = core::EdgeKind::kLoopClosure;
+  edge.is_outlier = input.source == "outlier";  // ground-truth label of the dataset player, if any
+  try {
+    engine_->addLoopClosure(edge);
+  } catch (const std::exception& e) {
+    return std::string("loop closure rejected by the engine: ") + e.what();
+  }
+  loop_meta_.push_back({matcher_.stamp(from.id), matcher_.stamp(to.id), input.source, input.score});
+  *added = true;
+  return "";
+}
+
+std::string BackendGraph::addLoopClosure(const LoopClosureInput& input, bool* added) {
+  bool hold = false;
+  const std::string warning = tryAddLoop(input, added, &hold);
+  if (hold) held_.push_back(input);
+  return warning;
+}
+
+std::vector<std::string> BackendGraph::retryHeld(double now, std::vector<double>* added_times) {
+  std::vector<std::string> warnings;
+  std::deque<LoopClosureInput> still;
+  for (const LoopClosureInput& input : held_) {
+    bool added = false, hold = false;
+    const std::string warning = tryAddLoop(input, &added, &hold);
+    if (added) {
+      added_times->push_back(input.received);
+    } else if (hold) {
+      if (now - input.received > parameters_.loop_closure_hold_time)
+        warnings.push_back("loop closure " + describeStamp(input.from_stamp) + " -> " +
+                           describeStamp(input.to_stamp) + " dropped: no keyframe matched within " +
+                           std::to_string(parameters_.loop_closure_hold_time) + " s");
+      else
+        still.push_back(input);
+    } else {
+      warnings.push_back(warning);
+    }
+  }
+  held_.swap(still);
+  return warnings;
+}
+
+void BackendGraph::rememberGood() {
+  last_good_.estimate = engine_->poses();
+  last_good_.graduation.clear();
+  last_good_.modes.clear();
+  for (const core::LoopClosure& loop : engine_->loopClosures()) {
+    last_good_.graduation.push_back(loop.graduation);
+    last_good_.modes.push_back(loop.override_mode);
+  }
+}
+
+void BackendGraph::rollBack() {
+  // Rebuild from the edges with the last good estimate; loop closures added
+  // since (no good state) are dropped with their metadata.
+  SavedGraph saved = save();
+  const size_t good_loops = last_good_.graduation.size();
+  saved.loops.resize(std::min(saved.loops.size(), good_loops));
+  core::Poses estimate = last_good_.estimate;
+  estimate.resize(std::min(estimate.size(), saved.estimate.size()));
+  for (size_t i = estimate.size(); i < saved.estimate.size(); ++i)
+    estimate.push_back(estimate[i - 1] * saved.odometry[i - 1].measurement);
+  saved.estimate = estimate;
+  for (size_t k = 0; k < saved.loops.size(); ++k) {
+    saved.loops[k].graduation = last_good_.graduation[k];
+    saved.loops[k].mode = last_good_.modes[k];
+  }
+  engine_ = build(saved);
+  loop_meta_.resize(saved.loops.size());
+  rememberGood();
+}
+
+bool BackendGraph::update(core::UpdateStats* stats, std::string* error) {
+  try {
+    *stats = engine_->update();
+    if (!finitePoses(*engine_)) throw std::runtime_error("the estimate became non-finite");
+  } catch (const std::exception& e) {
+    *error = std::string("update failed (") + e.what() + "); kept the last good estimate";
+    rollBack();
+    return false;
+  }
+  rememberGood();
+  return true;
+}
+
+bool BackendGraph::optimize(core::UpdateStats* stats, std::string* error) {
+  try {
+    if (engine_->pendingLoopClosures() > 0) engine_->update();
+    *stats = engine_->optimize(parameters_.optimize_iterations);
+    if (!finitePoses(*engine_)) throw std::runtime_error("the estimate became non-finite");
+  } catch (const std::exception& e) {
+    *error = std::string("optimisation failed (") + e.what() + "); kept the last good estimate";
+    rollBack();
+    return false;
+  }
+  rememberGood();
+  return true;
+}
+
+void BackendGraph::setOverride(int index, core::LoopOverride mode) { engine_->setOverride(index, mode); }
+
+SavedGraph BackendGraph::save() const {
+  SavedGraph g;
+  g.dimension = parameters_.dimension;
+  g.prior_information = prior_information_;
+  g.stamps = matcher_.stamps();
+  g.odom_poses = odom_poses_;
+  g.estimate = engine_->poses();
+  g.prior_value = odom_poses_.empty() ? core::Pose() : odom_poses_.front();
+  g.odometry = engine_->odometry();
+  const auto& loops = engine_->loopClosures();
+  for (size_t k = 0; k < loops.size(); ++k) {
+    SavedLoop l;
+    l.edge = loops[k].edge;
+    l.graduation = loops[k].graduation;
+    l.mode = loops[k].override_mode;
+    l.from_stamp = loop_meta_[k].from_stamp;
+    l.to_stamp = loop_meta_[k].to_stamp;
+    l.source = loop_meta_[k].source;
+    l.score = loop_meta_[k].score;
+    g.loops.push_back(l);
+  }
+  return g;
+}
+
+std::unique_ptr<core::IncrementalGnc> BackendGraph::build(const SavedGraph& saved) const {
+  if (saved.dimension != parameters_.dimension)
+    throw std::invalid_argument("the graph is " + std::to_string(saved.dimension) + "D, the back-end runs " +
+                                std::to_string(parameters_.dimension) + "D (~dimension)");
+  const size_t n = saved.estimate.size();
+  if (n == 0 || saved.stamps.size() != n || saved.odom_poses.size() != n)
+    throw std::invalid_argument("inconsistent graph: " + std::to_string(n) + " poses");
+  for (size_t i = 1; i < n; ++i)
+    if (saved.stamps[i] <= saved.stamps[i - 1]) throw std::invalid_argument("keyframe stamps do not increase");
+  auto engine = std::make_unique<core::IncrementalGnc>(parameters_.dimension, parameters_.gnc);
+  engine->addFirstPose(saved.prior_value, saved.prior_information);
+  std::vector<core::Edge> odometry = saved.odometry;
+  std::stable_sort(odometry.begin(), odometry.end(),
+                   [](const core::Edge& a, const core::Edge& b) { return std::max(a.from, a.to) < std::max(b.from, b.to); });
+  for (const core::Edge& e : odometry) engine->addOdometry(e);
+  if (engine->numPoses() != static_cast<int>(n))
+    throw std::invalid_argument("the odometry chain reaches " + std::to_string(engine->numPoses()) + " of " +
+                                std::to_string(n) + " poses");
+  for (const SavedLoop& l : saved.loops) engine->addLoopClosure(l.edge);
+  if (saved.has_state) {
+    std::vector<core::GraduationState> graduation;
+    std::vector<core::LoopOverride> modes;
+    for (const SavedLoop& l : saved.loops) {
+      graduation.push_back(l.graduation);
+      modes.push_back(l.mode);
+    }
+    engine->restore(saved.estimate, graduation, modes);
+  }
+  return engine;
+}
+
+void BackendGraph::load(const SavedGraph& saved) {
+  std::unique_ptr<core::IncrementalGnc> engine = build(saved);  // throws: graph intact
+  reset();
+  engine_ = std::move(engine);
+  for (const ros::Time& t : saved.stamps) matcher_.add(t);
+  odom_poses_ = saved.odom_poses;
+  for (const SavedLoop& l : saved.loops) loop_meta_.push_back({l.from_stamp, l.to_stamp, l.source, l.score});
+  selector_.resetTo(saved.stamps.back(), saved.odom_poses.back());
+  if (saved.has_state) rememberGood();
+  else last_good_.estimate = engine_->poses();
+}
+
+core::Pose BackendGraph::mapToOdom() const {
+  if (odom_poses_.empty()) return core::Pose();
+  const int last = engine_->numPoses() - 1;
+  return engine_->pose(last) * odom_poses_[last].inverse();
+}
+
+GraphSnapshotPtr BackendGraph::snapshot(bool with_edges) const {
+  auto s = std::make_shared<GraphSnapshot>();
+  s->dimension = parameters_.dimension;
+  s->map_to_odom = mapToOdom();
+  const int n = engine_->numPoses();
+  s->nodes.resize(n);
+  for (int i = 0; i < n; ++i) {
+    s->nodes[i].stamp = matcher_.stamp(i);
+    s->nodes[i].pose = engine_->pose(i);
+    s->nodes[i].odom_pose = odom_poses_[i];
+  }
+  if (!with_edges || n == 0) return s;
+  s->has_edges = true;
+  SnapshotEdge prior;
+  prior.type = SnapshotEdgeType::kPrior;
+  prior.measurement = odom_poses_.front();
+  prior.information = prior_information_;
+  s->edges.push_back(prior);
+  for (const core::Edge& e : engine_->odometry()) {
+    SnapshotEdge edge;
+    edge.type = SnapshotEdgeType::kOdometry;
+    edge.from = e.from;
+    edge.to = e.to;
+    edge.measurement = e.measurement;
+    edge.information = e.information;
+    s->edges.push_back(edge);
+  }
+  const auto& loops = engine_->loopClosures();
+  const int first_pending = static_cast<int>(loops.size()) - engine_->pendingLoopClosures();
+  for (size_t k = 0; k < loops.size(); ++k) {
+    const core::LoopClosure& l = loops[k];
+    SnapshotEdge edge;
+    edge.type = SnapshotEdgeType::kLoopClosure;
+    edge.from = l.edge.from;
+    edge.to = l.edge.to;
+    edge.loop_index = static_cast<int>(k);
+    edge.measurement = l.edge.measurement;
+    edge.information = l.edge.information;
+    edge.mu = l.graduation.mu;
+    edge.weight = l.weight;
+    edge.distance = l.distance;
+    edge.inlier = l.inlier;
+    edge.graduating = l.graduation.graduating || static_cast<int>(k) >= first_pending;
+    edge.mode = l.override_mode;
+    edge.source = loop_meta_[k].source;
+    edge.score = loop_meta_[k].score;
+    s->edges.push_back(edge);
+  }
+  return s;
+}
+
+}  // namespace ros_backend
+}  // namespace agnc_pgo

@@ -1,0 +1,188 @@
+// agnc_pgo/BackendNodelet: wiring of topics, services and timers to the worker.
+#include "agnc_pgo/ros/backend_nodelet.h"
+
+#include <stdexcept>
+
+#include <geometry_msgs/TransformStamped.h>
+#include <pluginlib/class_list_macros.hpp>
+
+#include "agnc_pgo/ros/conversions.h"
+
+namespace agnc_pgo {
+namespace ros_backend {
+
+BackendNodelet::~BackendNodelet() {
+  tf_timer_.stop();
+  if (worker_) worker_->stop();
+}
+
+void BackendNodelet::onInit() {
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
+  try {
+    parameters_ = readParameters(pnh);
+  } catch (const std::exception& e) {
+    NODELET_FATAL_STREAM("agnc_pgo: invalid parameters, not starting: " << e.what());
+    throw std::runtime_error(std::string("agnc_pgo: invalid parameters: ") + e.what());
+  }
+  NODELET_INFO_STREAM(describe(parameters_));
+  style_.frame = parameters_.map_frame;
+  style_.node_scale = parameters_.marker_node_scale;
+  style_.line_width = parameters_.marker_line_width;
+
+  path_publisher_ = pnh.advertise<nav_msgs::Path>("path", 1, /*latch=*/true);
+  marker_publisher_ = pnh.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
+  if (parameters_.publish_pose_graph)
+    pose_graph_publisher_ = pnh.advertise<agnc_pgo::PoseGraph>("pose_graph", 1, true);
+  status_publisher_ = pnh.advertise<agnc_pgo::GraphStatus>("status", 10, true);
+  broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+
+  worker_ = std::make_unique<BackendWorker>(parameters_, this);
+  worker_->start();
+
+  odometry_subscriber_ = pnh.subscribe("odom", parameters_.queue_size, &BackendNodelet::odometryCallback, this,
+                                       ros::TransportHints().tcpNoDelay());
+  loop_closure_subscriber_ = pnh.subscribe("loop_closures", parameters_.queue_size,
+                                           &BackendNodelet::loopClosureCallback, this,
+                                           ros::TransportHints().tcpNoDelay());
+  // Services on the multi-threaded handle: they wait for the worker, the
+  // subscriptions and the tf timer must not.
+  ros::NodeHandle& mt = getMTPrivateNodeHandle();
+  services_.push_back(mt.advertiseService("save_graph", &BackendNodelet::saveGraph, this));
+  services_.push_back(mt.advertiseService("load_graph", &BackendNodelet::loadGraph, this));
+  services_.push_back(mt.advertiseService("save_trajectory", &BackendNodelet::saveTrajectory, this));
+  services_.push_back(mt.advertiseService("optimize", &BackendNodelet::optimize, this));
+  services_.push_back(mt.advertiseService("reset", &BackendNodelet::reset, this));
+  services_.push_back(mt.advertiseService("pause", &BackendNodelet::pause, this));
+  services_.push_back(
+      mt.advertiseService("set_loop_closure_status", &BackendNodelet::setLoopClosureStatus, this));
+  tf_timer_ = pnh.createWallTimer(ros::WallDuration(1.0 / parameters_.tf_rate), &BackendNodelet::tfTimerCallback,
+                                  this);
+}
+
+// ---------------------------------------------------------------- callbacks: validate + enqueue
+
+void BackendNodelet::odometryCallback(const nav_msgs::Odometry::ConstPtr& message) {
+  try {
+    const std::string bad_pose = checkPose(message->pose.pose);
+    if (!bad_pose.empty()) return worker_->rejectOdometry(bad_pose);
+    if (message->header.stamp.isZero()) return worker_->rejectOdometry("zero stamp");
+    if (!warned_frame_ && !message->header.frame_id.empty() && message->header.frame_id != parameters_.odom_frame) {
+      warned_frame_ = true;
+      NODELET_WARN_STREAM("agnc_pgo: odometry frame '" << message->header.frame_id << "' differs from ~odom_frame '"
+                                                        << parameters_.odom_frame << "' (using it as " << parameters_.odom_frame << ")");
+    }
+    OdometryInput input;
+    input.stamp = message->header.stamp;
+    input.pose = toDimension(fromMsg(message->pose.pose), parameters_.dimension);
+    if (parameters_.use_odometry_covariance) {
+      if (isZero(message->pose.covariance))
+        return worker_->rejectOdometry("zero covariance with ~use_odometry_covariance");
+      input.information = informationFromCovariance(message->pose.covariance, parameters_.dimension);
+    }
+    worker_->enqueueOdometry(input);
+  } catch (const std::exception& e) {
+    worker_->rejectOdometry(e.what());
+  }
+}
+
+void BackendNodelet::loopClosureCallback(const agnc_pgo::LoopClosure::ConstPtr& message) {
+  const double received = BackendWorker::now();
+  try {
+    const std::string bad_pose = checkPose(message->relative_pose);
+    if (!bad_pose.empty()) return worker_->rejectLoopClosure(bad_pose);
+    if (message->from_stamp.isZero() || message->to_stamp.isZero())
+      return worker_->rejectLoopClosure("zero from_stamp/to_stamp");
+    LoopClosureInput input;
+    input.from_stamp = message->from_stamp;
+    input.to_stamp = message->to_stamp;
+    input.measurement = toDimension(fromMsg(message->relative_pose), parameters_.dimension);
+    if (!isZero(message->covariance))
+      input.information = informationFromCovariance(message->covariance, parameters_.dimension);
+    input.source = message->source;
+    input.score = message->score;
+    input.received = received;
+    worker_->enqueueLoopClosure(input);
+  } catch (const std::exception& e) {
+    worker_->rejectLoopClosure(e.what());
+  }
+}
+
+void BackendNodelet::tfTimerCallback(const ros::WallTimerEvent&) {
+  const ros::Time stamp = ros::Time::now() + ros::Duration(parameters_.tf_future_tolerance);
+  if (stamp <= last_tf_stamp_) return;  // never repeat a stamp (sim time paused, clock jumps)
+  last_tf_stamp_ = stamp;
+  const core::Pose m = worker_->mapToOdom();
+  geometry_msgs::TransformStamped t;
+  t.header.stamp = stamp;
+  t.header.frame_id = parameters_.map_frame;
+  t.child_frame_id = parameters_.odom_frame;
+  t.transform.translation.x = m.translation.x();
+  t.transform.translation.y = m.translation.y();
+  t.transform.translation.z = m.translation.z();
+  t.transform.rotation.x = m.rotation.x();
+  t.transform.rotation.y = m.rotation.y();
+  t.transform.rotation.z = m.rotation.z();
+  t.transform.rotation.w = m.rotation.w();
+  broadcaster_->sendTransform(t);
+}
+
+// ---------------------------------------------------------------- publishing (worker thread)
+
+void BackendNodelet::publishEstimate(const GraphSnapshot& snapshot) {
+  path_publisher_.publish(makePath(snapshot, parameters_.map_frame));
+}
+
+void BackendNodelet::publishGraph(const GraphSnapshot& snapshot) {
+  marker_publisher_.publish(makeMarkers(snapshot, style_));
+  if (pose_graph_publisher_) pose_graph_publisher_.publish(makePoseGraph(snapshot, parameters_.map_frame));
+}
+
+void BackendNodelet::publishStatus(const StatusInfo& status) { status_publisher_.publish(makeStatus(status)); }
+
+// ---------------------------------------------------------------- services
+
+namespace {
+template <typename Response>
+bool respond(const CommandResult& result, Response* response) {
+  response->success = result.success;
+  response->message = result.message;
+  if (result.success) ROS_INFO_STREAM("agnc_pgo: " << result.message);
+  else ROS_WARN_STREAM("agnc_pgo: " << result.message);
+  return true;
+}
+}  // namespace
+
+bool BackendNodelet::saveGraph(agnc_pgo::SaveGraph::Request& req, agnc_pgo::SaveGraph::Response& res) {
+  return respond(worker_->saveGraph(req.filename), &res);
+}
+bool BackendNodelet::loadGraph(agnc_pgo::LoadGraph::Request& req, agnc_pgo::LoadGraph::Response& res) {
+  return respond(worker_->loadGraph(req.filename), &res);
+}
+bool BackendNodelet::saveTrajectory(agnc_pgo::SaveTrajectory::Request& req,
+                                    agnc_pgo::SaveTrajectory::Response& res) {
+  return respond(worker_->saveTrajectory(req.filename), &res);
+}
+bool BackendNodelet::optimize(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  return respond(worker_->optimize(), &res);
+}
+bool BackendNodelet::reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Response& res) {
+  return respond(worker_->reset(), &res);
+}
+bool BackendNodelet::pause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
+  return respond(worker_->setPaused(req.data), &res);
+}
+bool BackendNodelet::setLoopClosureStatus(agnc_pgo::SetLoopClosureStatus::Request& req,
+                                          agnc_pgo::SetLoopClosureStatus::Response& res) {
+  if (req.mode > agnc_pgo::SetLoopClosureStatus::Request::FORCE_OUTLIER) {
+    res.success = false;
+    res.message = "mode must be 0 (auto), 1 (force inlier) or 2 (force outlier)";
+    return true;
+  }
+  return respond(worker_->setLoopClosureStatus(static_cast<int>(req.index), static_cast<core::LoopOverride>(req.mode)),
+                 &res);
+}
+
+}  // namespace ros_backend
+}  // namespace agnc_pgo
+
+PLUGINLIB_EXPORT_CLASS(agnc_pgo::ros_backend::BackendNodelet, nodelet::Nodelet)

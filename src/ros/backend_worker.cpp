@@ -1,0 +1,399 @@
+#include "agnc_pgo/ros/backend_worker.h"
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+
+#include <ros/console.h>
+
+#include "agnc_pgo/core/metrics.h"
+#include "agnc_pgo/core/replay.h"  // percentile
+
+namespace agnc_pgo {
+namespace ros_backend {
+
+namespace {
+constexpr double kCommandTimeout = 120.0;  // [s] a service waits this long for the worker
+}
+
+BackendWorker::BackendWorker(const BackendParameters& parameters, BackendOutput* output)
+    : parameters_(parameters), output_(output), graph_(parameters) {}
+
+BackendWorker::~BackendWorker() { stop(); }
+
+double BackendWorker::now() {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+void BackendWorker::start() {
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  if (thread_.joinable()) return;
+  stopping_ = false;
+  thread_ = std::thread(&BackendWorker::run, this);
+}
+
+void BackendWorker::stop() {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    stopping_ = true;
+  }
+  queue_cv_.notify_all();
+  if (thread_.joinable()) thread_.join();
+  // Unblock any service still waiting.
+  std::lock_guard<std::mutex> lock(queue_mutex_);
+  for (Item& item : queue_)
+    if (item.result) item.result->set_value({false, "the back-end is shutting down"});
+  queue_.clear();
+}
+
+void BackendWorker::warn(const std::string& message) {
+  ROS_WARN_STREAM("agnc_pgo: " << message);
+  std::lock_guard<std::mutex> lock(counters_mutex_);
+  counters_.last_warning = message;
+}
+
+void BackendWorker::rejectOdometry(const std::string& reason) {
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.odometry_messages;
+    ++counters_.rejected_odometry;
+  }
+  warn("rejected odometry: " + reason);
+}
+
+void BackendWorker::rejectLoopClosure(const std::string& reason) {
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.loop_closure_messages;
+    ++counters_.rejected_loop_closures;
+  }
+  warn("rejected loop closure: " + reason);
+}
+
+void BackendWorker::push(Item item) {
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (static_cast<int>(queue_.size()) >= parameters_.max_queue && item.kind != Item::Kind::kCommand) {
+      // Fall through to the rejection below (outside the lock).
+    } else {
+      queue_.push_back(std::move(item));
+      queue_cv_.notify_one();
+      return;
+    }
+  }
+  if (item.kind == Item::Kind::kOdometry) rejectOdometry("worker queue full (~max_queue)");
+  else rejectLoopClosure("worker queue full (~max_queue)");
+}
+
+void BackendWorker::enqueueOdometry(const OdometryInput& input) {
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.odometry_messages;
+  }
+  Item item{Item::Kind::kOdometry, input, {}, {}, {}};
+  push(std::move(item));
+}
+
+void BackendWorker::enqueueLoopClosure(const LoopClosureInput& input) {
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.loop_closure_messages;
+  }
+  Item item{Item::Kind::kLoopClosure, {}, input, {}, {}};
+  push(std::move(item));
+}
+
+CommandResult BackendWorker::call(std::function<CommandResult()> command) {
+  auto promise = std::make_shared<std::promise<CommandResult>>();
+  std::future<CommandResult> future = promise->get_future();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stopping_) return {false, "the back-end is shutting down"};
+    queue_.push_back(Item{Item::Kind::kCommand, {}, {}, std::move(command), promise});
+  }
+  queue_cv_.notify_one();
+  if (future.wait_for(std::chrono::duration<double>(kCommandTimeout)) != std::future_status::ready)
+    return {false, "timed out waiting for the back-end worker"};
+  return future.get();
+}
+
+core::Pose BackendWorker::mapToOdom() const {
+  std::lock_guard<std::mutex> lock(map_to_odom_mutex_);
+  return map_to_odom_;
+}
+
+void BackendWorker::run() {
+  while (true) {
+    std::deque<Item> batch;
+    {
+      std::unique_lock<std::mutex> lock(queue_mutex_);
+      const double wait = std::min(0.05, 1.0 / parameters_.status_rate);
+      queue_cv_.wait_for(lock, std::chrono::duration<double>(wait),
+                         [this] { return stopping_ || !queue_.empty(); });
+      if (stopping_) return;
+      batch.swap(queue_);
+    }
+    try {
+      processBatch(&batch);
+      const double t = now();
+      const bool idle = batch.empty();
+      if (graph_dirty_ && (idle || t - last_graph_publish_ >= 1.0 / parameters_.visualization_rate))
+        publish(true);
+      if (t - last_status_publish_ >= 1.0 / parameters_.status_rate) publishStatus();
+    } catch (const std::exception& e) {
+      // Nothing may take the nodelet down; the graph methods keep it consistent.
+      warn(std::string("worker error: ") + e.what());
+    }
+  }
+}
+
+void BackendWorker::processBatch(std::deque<Item>* batch) {
+  bool new_keyframes = false;
+  for (Item& item : *batch) {
+    switch (item.kind) {
+      case Item::Kind::kOdometry: {
+        bool keyframe = false;
+        const std::string warning = graph_.addOdometry(item.odometry, &keyframe);
+        if (!warning.empty()) {
+          {
+            std::lock_guard<std::mutex> lock(counters_mutex_);
+            ++counters_.rejected_odometry;
+          }
+          warn("rejected odometry: " + warning);
+        }
+        new_keyframes |= keyframe;
+        break;
+      }
+      case Item::Kind::kLoopClosure: {
+        bool added = false;
+        const std::string warning = graph_.addLoopClosure(item.loop, &added);
+        if (!warning.empty()) {
+          {
+            std::lock_guard<std::mutex> lock(counters_mutex_);
+            ++counters_.rejected_loop_closures;
+          }
+          warn("rejected loop closure: " + warning);
+        }
+        if (added) {
+          pending_latency_.push_back(item.loop.received);
+          needs_update_ = true;
+        }
+        break;
+      }
+      case Item::Kind::kCommand: {
+        // Bring the graph up to date first so commands see every earlier message.
+        if (needs_update_ && !paused_) solve();
+        CommandResult result;
+        try {
+          result = item.command();
+        } catch (const std::exception& e) {
+          result = {false, e.what()};
+        }
+        item.result->set_value(result);
+        graph_dirty_ = true;
+        publish(true);
+        publishStatus();
+        break;
+      }
+    }
+  }
+  // Held loop closures whose keyframes may have arrived; drop expired ones.
+  if (graph_.heldLoopClosures() > 0) {
+    std::vector<double> added;
+    for (const std::string& warning : graph_.retryHeld(now(), &added)) {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      ++counters_.rejected_loop_closures;
+      if (warning.find("dropped") != std::string::npos) ++counters_.dropped_loop_closures;
+      counters_.last_warning = warning;
+      ROS_WARN_STREAM("agnc_pgo: " << warning);
+    }
+    if (!added.empty()) {
+      pending_latency_.insert(pending_latency_.end(), added.begin(), added.end());
+      needs_update_ = true;
+    }
+  }
+  if (needs_update_ && !paused_) {
+    solve();
+  } else if (new_keyframes) {
+    graph_dirty_ = true;
+    publish(false);
+  }
+}
+
+void BackendWorker::solve() {
+  needs_update_ = false;
+  core::UpdateStats stats;
+  std::string error;
+  const double start = now();
+  const bool ok = graph_.update(&stats, &error);
+  const double end = now();
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    counters_.last_update_ms = (end - start) * 1e3;
+    counters_.last_gnc_steps = static_cast<unsigned>(stats.gnc_steps);
+    if (!ok) ++counters_.failed_updates;
+  }
+  if (!ok) warn(error);
+  last_update_ = ros::Time::now();
+  graph_dirty_ = true;
+  publish(false);
+  const double published = now();
+  for (double received : pending_latency_) latencies_ms_.push_back((published - received) * 1e3);
+  pending_latency_.clear();
+}
+
+void BackendWorker::publish(bool full) {
+  {
+    std::lock_guard<std::mutex> lock(map_to_odom_mutex_);
+    map_to_odom_ = graph_.mapToOdom();
+  }
+  GraphSnapshotPtr snapshot = graph_.snapshot(full);
+  output_->publishEstimate(*snapshot);
+  if (full) {
+    output_->publishGraph(*snapshot);
+    last_graph_publish_ = now();
+    graph_dirty_ = false;
+    publishStatus();
+  }
+}
+
+StatusInfo BackendWorker::status() const {
+  StatusInfo s;
+  const core::IncrementalGnc* engine = graph_.engine();
+  s.nodes = engine->numPoses();
+  s.odometry_edges = static_cast<int>(engine->odometry().size());
+  const auto& loops = engine->loopClosures();
+  s.loop_closures = static_cast<int>(loops.size());
+  const int first_pending = s.loop_closures - engine->pendingLoopClosures();
+  for (int k = 0; k < s.loop_closures; ++k) {
+    if (loops[k].graduation.graduating || k >= first_pending) ++s.graduating;
+    else if (loops[k].inlier) ++s.inliers;
+    else ++s.outliers;
+  }
+  s.held = graph_.heldLoopClosures();
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    s.counters = counters_;
+  }
+  s.last_update = last_update_;
+  s.total_gnc_steps = engine->totalGncSteps();
+  s.total_iterations = engine->totalIterations();
+  s.latency_p50 = core::percentile(latencies_ms_, 50);
+  s.latency_p95 = core::percentile(latencies_ms_, 95);
+  s.latency_max = core::percentile(latencies_ms_, 100);
+  s.paused = paused_;
+  return s;
+}
+
+void BackendWorker::publishStatus() {
+  output_->publishStatus(status());
+  last_status_publish_ = now();
+}
+
+// ---------------------------------------------------------------- commands
+
+CommandResult BackendWorker::saveGraph(const std::string& filename) {
+  return call([this, filename]() -> CommandResult {
+    if (filename.empty()) return {false, "empty filename"};
+    if (graph_.numNodes() == 0) return {false, "the graph is empty"};
+    try {
+      ros_backend::saveGraph(graph_.save(), filename);
+    } catch (const std::exception& e) {
+      return {false, e.what()};
+    }
+    return {true, "saved " + std::to_string(graph_.numNodes()) + " nodes and " +
+                      std::to_string(graph_.numLoopClosures()) + " loop closures to " + filename + " (+ " +
+                      sidecarPath(filename) + ")"};
+  });
+}
+
+CommandResult BackendWorker::loadGraph(const std::string& filename) {
+  return call([this, filename]() -> CommandResult {
+    if (filename.empty()) return {false, "empty filename"};
+    try {
+      const int t = parameters_.dimension == 2 ? 3 : 6;
+      const Eigen::MatrixXd prior =
+          Eigen::MatrixXd::Identity(t, t) / (parameters_.prior_sigma * parameters_.prior_sigma);
+      const SavedGraph saved = ros_backend::loadGraph(filename, prior);
+      graph_.load(saved);
+      pending_latency_.clear();
+      needs_update_ = !saved.has_state;
+      if (needs_update_ && !paused_) solve();
+    } catch (const std::exception& e) {
+      return {false, std::string("load failed, graph unchanged: ") + e.what()};
+    }
+    return {true, "loaded " + std::to_string(graph_.numNodes()) + " nodes and " +
+                      std::to_string(graph_.numLoopClosures()) + " loop closures from " + filename};
+  });
+}
+
+CommandResult BackendWorker::saveTrajectory(const std::string& filename) {
+  return call([this, filename]() -> CommandResult {
+    if (filename.empty()) return {false, "empty filename"};
+    if (graph_.numNodes() == 0) return {false, "the graph is empty"};
+    {
+      std::ofstream test(filename);
+      if (!test) return {false, "cannot write " + filename};
+    }
+    std::vector<double> stamps;
+    for (const ros::Time& t : graph_.stamps()) stamps.push_back(t.toSec());
+    core::writeTumTrajectory(graph_.engine()->poses(), filename, stamps);
+    return {true, "wrote " + std::to_string(stamps.size()) + " poses to " + filename};
+  });
+}
+
+CommandResult BackendWorker::optimize() {
+  return call([this]() -> CommandResult {
+    if (graph_.numNodes() == 0) return {false, "the graph is empty"};
+    core::UpdateStats stats;
+    std::string error;
+    needs_update_ = false;
+    pending_latency_.clear();
+    if (!graph_.optimize(&stats, &error)) {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      ++counters_.failed_updates;
+      return {false, error};
+    }
+    last_update_ = ros::Time::now();
+    return {true, "optimised: " + std::to_string(stats.iterations) + " iterations, " +
+                      (stats.converged ? "converged" : "not converged")};
+  });
+}
+
+CommandResult BackendWorker::reset() {
+  return call([this]() -> CommandResult {
+    graph_.reset();
+    needs_update_ = false;
+    pending_latency_.clear();
+    latencies_ms_.clear();
+    {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      counters_ = Counters();
+    }
+    return {true, "graph cleared"};
+  });
+}
+
+CommandResult BackendWorker::setPaused(bool paused) {
+  return call([this, paused]() -> CommandResult {
+    paused_ = paused;
+    if (!paused_ && needs_update_) solve();
+    return {true, paused ? "paused: messages are added, no solves" : "resumed"};
+  });
+}
+
+CommandResult BackendWorker::setLoopClosureStatus(int index, core::LoopOverride mode) {
+  return call([this, index, mode]() -> CommandResult {
+    if (index < 0 || index >= graph_.numLoopClosures())
+      return {false, "unknown loop closure " + std::to_string(index) + " (graph has " +
+                         std::to_string(graph_.numLoopClosures()) + ")"};
+    graph_.setOverride(index, mode);
+    needs_update_ = true;
+    if (!paused_) solve();
+    const core::LoopClosure& loop = graph_.engine()->loopClosures()[index];
+    return {true, "loop closure " + std::to_string(index) + " is now " + (loop.inlier ? "an inlier" : "an outlier")};
+  });
+}
+
+}  // namespace ros_backend
+}  // namespace agnc_pgo
