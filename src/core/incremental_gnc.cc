@@ -115,6 +115,18 @@ void IncrementalGnc::setOverride(int index, LoopOverride mode) {
   needs_restart_.push_back(index);
 }
 
+void IncrementalGnc::acceptConsistent(const std::vector<int>& graduating) {
+  for (int index : graduating) {
+    LoopClosure& loop = loops_[index];
+    if (!loop.graduation.graduating) continue;
+    const double m = schedule_.distanceOf(solver_.whitenedNorm(loop.factor));
+    if (m >= schedule_.thresholds().q25) continue;
+    loop.graduation.mu = 1.0;
+    loop.graduation.graduating = false;
+    solver_.setMu(loop.factor, 1.0);
+  }
+}
+
 int IncrementalGnc::settle(int first, int max_iterations, double last_step, UpdateStats* stats) {
   int done = 0;
   while (done < max_iterations && last_step >= options_.convergence_step) {
@@ -178,6 +190,8 @@ UpdateStats IncrementalGnc::update() {
     stats.factorizations += r.factorizations;
     if (r.accepted) last_step = r.mean_step;
     for (int index : graduating) schedule_.finishStep(&loops_[index].graduation);
+    if (options_.early_accept_consistent && r.accepted && r.mean_step < options_.convergence_step)
+      acceptConsistent(graduating);
     graduating.erase(std::remove_if(graduating.begin(), graduating.end(),
                                     [this](int i) { return !loops_[i].graduation.graduating; }),
                      graduating.end());
@@ -193,7 +207,9 @@ UpdateStats IncrementalGnc::update() {
     refresh(&loop);
     if (stats.converged) schedule_.adaptInitial(&loop.graduation, schedule_.distanceOf(loop.distance));
   }
-  for (int index : pending_) refresh(&loops_[index]);  // e.g. schedule none: not graduating
+  // Not graduating but changed: schedule none, or an override.
+  for (int index : pending_) refresh(&loops_[index]);
+  for (int index : needs_restart_) refresh(&loops_[index]);
 
   pending_.clear();
   needs_restart_.clear();

@@ -1,5 +1,7 @@
 #include "agnc_pgo/core/pose.h"
 
+#include "agnc_pgo/core/se2_logmap.h"
+
 #include <cmath>
 
 namespace agnc_pgo {
@@ -58,7 +60,7 @@ Eigen::VectorXd relativePoseError(int dimension, const Pose& a, const Pose& b, c
   const Pose e = z.inverse() * (a.inverse() * b);
   if (dimension == 2) {
     Eigen::VectorXd r(3);
-    r << e.translation.x(), e.translation.y(), wrapAngle(b.yaw() - a.yaw() - z.yaw());
+    se2Logmap(e.translation.x(), e.translation.y(), wrapAngle(b.yaw() - a.yaw() - z.yaw()), r.data());
     return r;
   }
   // q and -q are the same rotation; w >= 0 picks the small-angle

@@ -14,6 +14,7 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
   ReplayResult result;
   IncrementalGnc engine(log.dimension, options.gnc);
   const size_t total = log.entries.size();
+  double free_pose_solves = 0.0;
   for (size_t k = 0; k < total; ++k) {
     const LogEntry& entry = log.entries[k];
     const auto start = Clock::now();
@@ -38,7 +39,7 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
       result.loop_update_ms.push_back(seconds * 1e3);
       result.loop_update_poses.push_back(engine.numPoses());
     }
-    (void)stats;
+    free_pose_solves += static_cast<double>(stats.iterations) * (engine.numPoses() - stats.first_variable);
     if (options.progress) options.progress(k + 1, total);
   }
 
@@ -46,6 +47,7 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
   result.estimate = engine.poses();
   result.solves = engine.totalIterations();
   result.gnc_steps = engine.totalGncSteps();
+  if (result.solves > 0) result.mean_free_poses = free_pose_solves / result.solves;
   std::vector<bool> labels, kept;
   for (const LoopClosure& loop : engine.loopClosures()) {
     LoopClosureResult r;

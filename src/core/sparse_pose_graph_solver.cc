@@ -114,7 +114,8 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   const int nv = numPoses() - first;
   auto var = [first](int id) { return id >= first ? id - first : -1; };
 
-  // Block rows I <= J present in each block column J.
+  // Block rows I >= J present in each block column J (lower triangle: CHOLMOD
+  // factorises the lower form without transposing it first).
   std::vector<std::vector<int>> rows(nv);
   for (int j = 0; j < nv; ++j) rows[j].push_back(j);
   slots_.clear();
@@ -123,7 +124,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     const int ia = f.a == kAnchor ? -1 : var(f.a);
     const int ib = var(f.b);
     if (ia < 0 && ib < 0) continue;
-    if (ia >= 0 && ib >= 0) rows[std::max(ia, ib)].push_back(std::min(ia, ib));
+    if (ia >= 0 && ib >= 0) rows[std::min(ia, ib)].push_back(std::max(ia, ib));
     slots_.push_back(FactorSlot{k, ia, ib, 0, 0, 0, 0, 0, 0});
   }
   std::vector<long> column_start(nv + 1, 0);
@@ -150,7 +151,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   }
   outer[n] = static_cast<int>(column_start[nv]);
 
-  // Offset of block (i, j), i <= j: base + c * stride + r for entry (r, c).
+  // Offset of block (i, j), i >= j: base + c * stride + r for entry (r, c).
   auto locate = [&](int i, int j, long* base, long* stride) {
     const auto it = std::lower_bound(rows[j].begin(), rows[j].end(), i);
     *stride = static_cast<long>(rows[j].size()) * d;
@@ -160,7 +161,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     if (s.ia >= 0) locate(s.ia, s.ia, &s.base_aa, &s.stride_aa);
     if (s.ib >= 0) locate(s.ib, s.ib, &s.base_bb, &s.stride_bb);
     if (s.ia >= 0 && s.ib >= 0)
-      locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
+      locate(std::max(s.ia, s.ib), std::min(s.ia, s.ib), &s.base_ab, &s.stride_ab);
   }
   diagonal_offsets_.resize(n);
   for (int j = 0; j < nv; ++j) {
@@ -223,7 +224,8 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
       gradient_.segment(s.ib * d, d) += w * jb.transpose() * rv;
     }
     if (s.ia >= 0 && s.ib >= 0) {
-      if (s.ia < s.ib) add_block(s.base_ab, s.stride_ab, w * ja.transpose() * jb);
+      // Block (max, min) of the lower triangle: J_max^T J_min.
+      if (s.ia > s.ib) add_block(s.base_ab, s.stride_ab, w * ja.transpose() * jb);
       else add_block(s.base_ab, s.stride_ab, w * jb.transpose() * ja);
     }
   }

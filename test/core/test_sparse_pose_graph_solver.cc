@@ -2,6 +2,7 @@
 // ceres::Solve on the same graphs.
 #include <gtest/gtest.h>
 
+#include <memory>
 #include <string>
 
 #include "agnc_pgo/core/batch_solver.h"
@@ -18,8 +19,9 @@ std::string dataset(const std::string& name) {
 
 // Loads a graph into the solver (pose 0 held by a tight prior at its value)
 // and iterates to convergence on the whole graph.
-SparsePoseGraphSolver solveIncrementalSolver(const PoseGraph& g, int iterations) {
-  SparsePoseGraphSolver solver(g.dimension);
+std::unique_ptr<SparsePoseGraphSolver> solveIncrementalSolver(const PoseGraph& g, int iterations) {
+  auto owned = std::make_unique<SparsePoseGraphSolver>(g.dimension);
+  SparsePoseGraphSolver& solver = *owned;
   for (const Pose& p : g.poses) solver.addPose(p);
   const int n = g.tangentDimension();
   solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, g.poses[0], 1e10 * Eigen::MatrixXd::Identity(n, n),
@@ -29,7 +31,7 @@ SparsePoseGraphSolver solveIncrementalSolver(const PoseGraph& g, int iterations)
     const IterationResult r = solver.iterate(0);
     if (!r.accepted || r.mean_step < 1e-10) break;
   }
-  return solver;
+  return owned;
 }
 
 double maxPositionDifference(const SparsePoseGraphSolver& solver, const PoseGraph& reference) {
@@ -44,22 +46,27 @@ double maxPositionDifference(const SparsePoseGraphSolver& solver, const PoseGrap
 TEST(SparsePoseGraphSolver, NoisyToyGraphReachesGtsamOptimum) {
   const PoseGraph g = readG2o(dataset("noisyToyGraph.g2o"));
   const PoseGraph optimum = readG2o(dataset("noisyToyGraph_optimized.g2o"));
-  const SparsePoseGraphSolver solver = solveIncrementalSolver(g, 50);
+  const auto owner = solveIncrementalSolver(g, 50);
+  const SparsePoseGraphSolver& solver = *owner;
+  // The stored file is an older GTSAM's solution; it lies up to 1.7e-3 from
+  // the exact optimum that GTSAM 4.3 and this solver both reach (the chi2
+  // check below pins that optimum to 1e-6), hence 2e-3 here.
+  const double tolerance = 2e-3;
   for (int i = 0; i < solver.numPoses(); ++i) {
-    EXPECT_NEAR(solver.pose(i).translation.x(), optimum.poses[i].translation.x(), 1e-3) << i;
-    EXPECT_NEAR(solver.pose(i).translation.y(), optimum.poses[i].translation.y(), 1e-3) << i;
-    EXPECT_NEAR(wrapAngle(solver.pose(i).yaw() - optimum.poses[i].yaw()), 0.0, 1e-3) << i;
+    EXPECT_NEAR(solver.pose(i).translation.x(), optimum.poses[i].translation.x(), tolerance) << i;
+    EXPECT_NEAR(solver.pose(i).translation.y(), optimum.poses[i].translation.y(), tolerance) << i;
+    EXPECT_NEAR(wrapAngle(solver.pose(i).yaw() - optimum.poses[i].yaw()), 0.0, tolerance) << i;
   }
-  // 0.5 * chi2 of the dataset README (0.1367 with pose 0 fixed).
-  EXPECT_NEAR(2.0 * solver.totalCost(), 0.1367, 1e-3);
+  // chi2 of GTSAM 4.3's optimum with pose 0 fixed (shared/datasets/README.md).
+  EXPECT_NEAR(2.0 * solver.totalCost(), 0.136686, 1e-6);
 }
 
 TEST(SparsePoseGraphSolver, AgreesWithCeresOnTwoAndThreeDimensionalGraphs) {
   for (const std::string name : {"pose2example.g2o", "tinyGrid3D.g2o", "smallGrid3D.g2o", "pose3example.g2o"}) {
     PoseGraph g = readG2o(dataset(name));
-    const SparsePoseGraphSolver solver = solveIncrementalSolver(g, 100);
+    const auto solver = solveIncrementalSolver(g, 100);
     optimizeBatch(&g);
-    EXPECT_LT(maxPositionDifference(solver, g), 1e-5) << name;
+    EXPECT_LT(maxPositionDifference(*solver, g), 1e-5) << name;
   }
 }
 

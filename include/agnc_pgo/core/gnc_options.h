@@ -47,7 +47,12 @@ struct GncOptions {
   bool adapt_initial_mu = true;
   // Free only the poses from the oldest endpoint of the new loop closures on
   // (older poses held fixed) instead of the whole graph.
-  bool local_window = false;
+  bool local_window = true;
+  // Shortcut: once a GNC step barely moved the estimate (mean step below
+  // convergence_step), graduating loop closures that are confident inliers
+  // (distance < q(0.25)) jump to mu = 1 and stop graduating: their kernel
+  // weight hardly depends on mu, so the remaining steps would not move them.
+  bool early_accept_consistent = true;
   // Safety bound on GNC steps per update (a loop closure needs at most 6).
   int max_gnc_steps = 30;
 };

@@ -96,6 +96,7 @@ class IncrementalGnc {
   void validateEdge(const Edge& edge, bool allow_new_pose) const;
   void refresh(LoopClosure* loop);
   void applyOverride(LoopClosure* loop);
+  void acceptConsistent(const std::vector<int>& graduating);
   int settle(int first_variable, int max_iterations, double last_step, UpdateStats* stats);
 
   int dimension_;

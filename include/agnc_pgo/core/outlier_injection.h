@@ -28,7 +28,8 @@ int numOutliersFor(int true_loops, double percent);
 // Returns a copy of `graph` with outlier loop closures appended (is_outlier =
 // true): each joins random poses i > j, |i - j| >= 2, measurement = identity,
 // diagonal covariance (options or the dataset's default), and pairs whose true relative pose (from `reference`, the
-// outlier-free optimum or ground truth) lies within chi2 q(0.95) of the
+// outlier-free optimum or ground truth) has a Mahalanobis distance r (not
+// r^2) below chi2 q(0.95) from the
 // identity under that noise are rejected and redrawn. Deterministic per seed
 // (std::mt19937_64).
 PoseGraph injectOutliers(const PoseGraph& graph, const PoseGraph& reference,

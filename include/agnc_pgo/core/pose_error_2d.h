@@ -3,10 +3,11 @@
 //
 // Parameter blocks: pose a = [x_a, y_a, yaw_a], pose b = [x_b, y_b, yaw_b].
 // Measurement z = (t_z, yaw_z): the pose of b in a's frame. The error is
-// z^-1 * (a^-1 * b) as a vector:
+// the SE(2) logarithm of z^-1 * (a^-1 * b) (GTSAM's Pose2 Local()):
 //
-//   e_t   = R(yaw_z)^T (R(yaw_a)^T (t_b - t_a) - t_z)
-//   e_yaw = wrap(yaw_b - yaw_a - yaw_z)
+//   d_t   = R(yaw_z)^T (R(yaw_a)^T (t_b - t_a) - t_z)
+//   theta = wrap(yaw_b - yaw_a - yaw_z)
+//   e     = [V(theta)^-1 d_t, theta]          (see se2_logmap.h)
 //
 // and the residual is the whitened error S e with S^T S = information, so the
 // robust kernel sees r = |S e|, the Mahalanobis distance.
@@ -14,6 +15,8 @@
 
 #include <ceres/autodiff_cost_function.h>
 #include <Eigen/Core>
+
+#include "agnc_pgo/core/se2_logmap.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -41,10 +44,10 @@ class PoseError2d {
     const T tx = ca * dx + sa * dy;
     const T ty = -sa * dx + ca * dy;
     const T cz(cos(z_(2))), sz(sin(z_(2)));
+    const T d_x = cz * (tx - T(z_(0))) + sz * (ty - T(z_(1)));
+    const T d_y = -sz * (tx - T(z_(0))) + cz * (ty - T(z_(1)));
     Eigen::Matrix<T, 3, 1> e;
-    e(0) = cz * (tx - T(z_(0))) + sz * (ty - T(z_(1)));
-    e(1) = -sz * (tx - T(z_(0))) + cz * (ty - T(z_(1)));
-    e(2) = wrapAngleT(b[2] - a[2] - T(z_(2)));
+    se2Logmap(d_x, d_y, wrapAngleT(b[2] - a[2] - T(z_(2))), e.data());
     Eigen::Map<Eigen::Matrix<T, 3, 1>> r(residual);
     r = sqrt_information_.template cast<T>() * e;
     return true;

@@ -33,6 +33,7 @@ struct ReplayResult {
   double runtime_s = 0;         // total wall time of all updates
   long solves = 0;              // Gauss-Newton iterations over the run
   long gnc_steps = 0;
+  double mean_free_poses = 0;   // average number of free poses per solve
   std::vector<double> loop_update_ms;    // one per update that had loop closures
   std::vector<int> loop_update_poses;    // graph size at each of those updates
   ClassificationCounts counts;

@@ -89,7 +89,7 @@ class SparsePoseGraphSolver {
     int ia, ib;               // variable block index or -1 (fixed)
     long base_aa, stride_aa;  // (ia, ia)
     long base_bb, stride_bb;  // (ib, ib)
-    long base_ab, stride_ab;  // (min, max) when both are variables
+    long base_ab, stride_ab;  // (max, min) when both are variables
   };
 
   void buildStructure(int first_variable);
@@ -113,7 +113,7 @@ class SparsePoseGraphSolver {
   std::vector<long> diagonal_offsets_;
   Eigen::SparseMatrix<double> hessian_;
   Eigen::VectorXd gradient_;
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> cholesky_;
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> cholesky_;
   std::vector<PoseBlock> saved_;
 };
 
