@@ -332,9 +332,3 @@ TEST(G2oIo, EdgesOnly3DMatchesComposedOdometry) {
 }  // namespace
 }  // namespace core
 }  // namespace agnc_pgo
-
-// Own main: links whether or not the build also provides gtest_main.
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -283,9 +283,3 @@ TEST(IrlIo, GraphFromIrlLogKeepsLabels) {
 }  // namespace
 }  // namespace core
 }  // namespace agnc_pgo
-
-// Own main: links whether or not the build also provides gtest_main.
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -299,9 +299,3 @@ TEST(WriteTumTrajectory, RejectsBadInput) {
 }  // namespace
 }  // namespace core
 }  // namespace agnc_pgo
-
-// catkin_add_gtest links gtest without gtest_main.
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

@@ -2,6 +2,7 @@
 #include "agnc_pgo/core/outlier_injection.h"
 
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 #include <set>
 #include <stdexcept>
@@ -20,7 +21,8 @@ namespace core {
 namespace {
 
 // chi2 quantiles at 0.95, hard-coded so the test checks the library's gate
-// against independent numbers.
+// against independent numbers. The gate compares the Mahalanobis distance r
+// itself (not r^2) with these: a pair is an outlier iff r >= q95.
 constexpr double kChi2Q95Dof3 = 7.814727903251178;
 constexpr double kChi2Q95Dof6 = 12.591587243743977;
 
@@ -31,9 +33,11 @@ Pose planarPose(double x, double y, double yaw) {
   return pose;
 }
 
-// Mahalanobis distance of the pose of j in i's frame from the identity,
-// computed here from the pose data: SE(2) error (x, y, yaw), SE(3) error
-// (t, 2 vec(q)) with q taken in the w >= 0 hemisphere.
+// Mahalanobis distance r = sqrt(e^T Omega e) (not r^2) of the pose of j in
+// i's frame from the identity, computed here from the pose data. SE(2) error:
+// the Pose2 Logmap [rho, theta], rho = V(theta)^-1 t, written in the
+// half-angle form V^-1 = (theta / 2) [[cot(theta / 2), 1], [-1, cot(theta / 2)]].
+// SE(3) error: (t, 2 vec(q)) with q taken in the w >= 0 hemisphere.
 double distanceToIdentity(const PoseGraph& reference, int i, int j, const Eigen::VectorXd& covariance) {
   const Pose& a = reference.poses[i];
   const Pose& b = reference.poses[j];
@@ -42,27 +46,40 @@ double distanceToIdentity(const PoseGraph& reference, int i, int j, const Eigen:
   Eigen::VectorXd error(covariance.size());
   if (covariance.size() == 3) {
     const Eigen::Matrix3d R = q.toRotationMatrix();
-    error << t.x(), t.y(), std::atan2(R(1, 0), R(0, 0));
+    const double theta = std::atan2(R(1, 0), R(0, 0));
+    if (std::abs(theta) < 1e-9) {
+      error << t.x(), t.y(), theta;
+    } else {
+      const double half = theta / 2.0;
+      const double cot = 1.0 / std::tan(half);
+      error << half * (cot * t.x() + t.y()), half * (-t.x() + cot * t.y()), theta;
+    }
   } else {
     const double sign = q.w() < 0 ? -1.0 : 1.0;
     error << t, 2.0 * sign * q.vec();
   }
-  return (error.array().square() / covariance.array()).sum();
+  return std::sqrt((error.array().square() / covariance.array()).sum());
 }
 
-// N poses along x that revisit the same ten spots (x = 0.05 * (k % 10)), so
+// Spacing of the revisited spots. Under CSAIL's noise (sigma_x^2 = 0.015) two
+// poses d spots apart are r = 0.15 d / sqrt(0.015) = 1.22 d apart: d <= 2 is
+// consistent even by the old r^2 rule, 3 <= d <= 6 has q95 <= r^2 but r < q95
+// (rejected now, accepted by an r^2 gate), d >= 7 has r >= q95 (outliers).
+constexpr double kSpotSpacing = 0.15;
+
+// N poses along x that revisit the same ten spots (x = 0.15 * (k % 10)), so
 // many pose pairs are consistent with the identity under CSAIL's noise and
 // must be rejected, while pairs >= 7 spots apart are not. `loops` true loop
 // closures (k + 2 -> k) make L.
 PoseGraph revisitingPlanarGraph(int num_poses, int loops) {
   PoseGraph graph;
   graph.dimension = 2;
-  for (int k = 0; k < num_poses; ++k) graph.poses.push_back(planarPose(0.05 * (k % 10), 0.0, 0.0));
+  for (int k = 0; k < num_poses; ++k) graph.poses.push_back(planarPose(kSpotSpacing * (k % 10), 0.0, 0.0));
   for (int k = 0; k + 1 < num_poses; ++k) {
     Edge edge;
     edge.from = k;
     edge.to = k + 1;
-    edge.measurement = planarPose(0.05, 0.0, 0.0);
+    edge.measurement = planarPose(kSpotSpacing, 0.0, 0.0);
     edge.information = Eigen::Matrix3d::Identity() * 100.0;
     edge.kind = EdgeKind::kOdometry;
     graph.edges.push_back(edge);
@@ -156,6 +173,7 @@ void expectValidInjection(const PoseGraph& original, const PoseGraph& reference,
     ASSERT_EQ(edge.information.cols(), dof);
     EXPECT_TRUE(edge.information.isApprox(information, 1e-12));
     EXPECT_TRUE(seen.insert({edge.from, edge.to}).second) << "duplicate pair " << edge.from << "," << edge.to;
+    // r itself, not r^2, must reach the quantile.
     EXPECT_GE(distanceToIdentity(reference, edge.from, edge.to, covariance), threshold)
         << "pair " << edge.from << "," << edge.to << " is consistent with the identity";
   }
@@ -243,22 +261,89 @@ TEST(InjectOutliers, PlanarGraphSatisfiesAllConstraints) {
   const PoseGraph result = injectOutliers(graph, graph, "csail", options);
   expectValidInjection(graph, graph, result, 30, defaultOutlierCovariance("csail", 2));
   EXPECT_EQ(countOutliers(result), 30);
+  // Only pairs >= 7 spots apart (r >= q95) qualify; 3..6 spots apart would
+  // pass an r^2 gate but not this one.
+  for (const auto& pair : injectedPairs(graph, result)) {
+    const int spots = std::abs(pair.first % 10 - pair.second % 10);
+    EXPECT_GE(spots, 7) << "pair " << pair.first << "," << pair.second;
+  }
 }
 
-// The fixture must actually contain pairs that the gate rejects, otherwise
-// the consistency test above would pass vacuously.
+// The fixture must actually contain pairs that the gate rejects, including
+// pairs that only the r (not r^2) comparison rejects, otherwise the
+// consistency test above would pass vacuously.
 TEST(InjectOutliers, FixtureHasConsistentPairs) {
   const PoseGraph graph = revisitingPlanarGraph(60, 30);
   const Eigen::VectorXd covariance = defaultOutlierCovariance("csail", 2);
-  int consistent = 0;
-  int inconsistent = 0;
+  int consistent = 0;     // r^2 < q95
+  int squared_only = 0;   // q95 <= r^2 but r < q95
+  int inconsistent = 0;   // r >= q95
   for (int i = 0; i < 60; ++i) {
     for (int j = 0; j + 2 <= i; ++j) {
-      (distanceToIdentity(graph, i, j, covariance) < kChi2Q95Dof3 ? consistent : inconsistent) += 1;
+      const double r = distanceToIdentity(graph, i, j, covariance);
+      if (r >= kChi2Q95Dof3) {
+        ++inconsistent;
+      } else if (r * r >= kChi2Q95Dof3) {
+        ++squared_only;
+      } else {
+        ++consistent;
+      }
     }
   }
-  EXPECT_GT(consistent, 500);
-  EXPECT_GT(inconsistent, 100);
+  // 6 poses per spot: 6 spot pairs are >= 7 apart (36 pose pairs each, less
+  // the 5 lap changes 10m + 9 -> 10m + 10, which are adjacent), 22 are 3..6 apart.
+  EXPECT_EQ(inconsistent, 6 * 36 - 5);
+  EXPECT_EQ(squared_only, 22 * 36);
+  EXPECT_EQ(consistent + squared_only + inconsistent, 59 * 58 / 2);
+}
+
+// The gate compares r = sqrt(e^T Omega e) with q95, not r^2. Three poses leave
+// a single candidate pair (2, 0), so the library must take it or throw.
+TEST(InjectOutliers, GateUsesDistanceNotItsSquare) {
+  const Eigen::VectorXd covariance = defaultOutlierCovariance("csail", 2);
+  const double sigma_x = std::sqrt(covariance(0));
+  OutlierOptions options;
+  options.percent = 50.0;  // L = 1 -> one outlier
+  PoseGraph graph = revisitingPlanarGraph(3, 1);
+  ASSERT_EQ(numOutliersFor(1, 50.0), 1);
+
+  // 0.6 m along x: r = 0.6 / sqrt(0.015) = 4.899, r^2 = 24 >= 7.81 > r.
+  graph.poses[0] = planarPose(0.0, 0.0, 0.0);
+  graph.poses[2] = planarPose(0.6, 0.0, 0.0);
+  const double r = distanceToIdentity(graph, 2, 0, covariance);
+  EXPECT_NEAR(r, 0.6 / sigma_x, 1e-12);
+  ASSERT_GE(r * r, kChi2Q95Dof3);
+  ASSERT_LT(r, kChi2Q95Dof3);
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::runtime_error);
+
+  // Just below and just above r = q95.
+  graph.poses[2] = planarPose(sigma_x * kChi2Q95Dof3 * (1.0 - 1e-9), 0.0, 0.0);
+  ASSERT_LT(distanceToIdentity(graph, 2, 0, covariance), kChi2Q95Dof3);
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::runtime_error);
+
+  graph.poses[2] = planarPose(sigma_x * kChi2Q95Dof3 * (1.0 + 1e-9), 0.0, 0.0);
+  ASSERT_GE(distanceToIdentity(graph, 2, 0, covariance), kChi2Q95Dof3);
+  const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+  expectValidInjection(graph, graph, result, 1, covariance);
+  ASSERT_EQ(injectedPairs(graph, result), (std::vector<std::pair<int, int>>{{2, 0}}));
+
+  // The residual gated is the SE(2) Logmap, |rho| = |t| (theta/2) / sin(theta/2).
+  // Under noise (0.01, 0.01, 1) a quarter turn with |t| = 0.73 has
+  // r^2 = 0.5329 (pi^2 / 8) / 0.01 + pi^2 / 4 = 6.91125 pi^2 = 68.21 (r = 8.26 >= q95),
+  // while the plain [t, theta] would give r^2 = 53.29 + pi^2 / 4 = 55.76 (r = 7.47 < q95).
+  options.covariance_diagonal = Eigen::Vector3d(0.01, 0.01, 1.0);
+  graph.poses[2] = planarPose(0.73, 0.0, M_PI / 2);
+  const double logmap_r = distanceToIdentity(graph, 2, 0, options.covariance_diagonal);
+  EXPECT_NEAR(logmap_r * logmap_r, 6.91125 * M_PI * M_PI, 1e-9);
+  ASSERT_GE(logmap_r, kChi2Q95Dof3);
+  ASSERT_LT(std::sqrt(53.29 + M_PI * M_PI / 4.0), kChi2Q95Dof3);
+  const PoseGraph rotated = injectOutliers(graph, graph, "csail", options);
+  expectValidInjection(graph, graph, rotated, 1, options.covariance_diagonal);
+  EXPECT_EQ(injectedPairs(graph, rotated), (std::vector<std::pair<int, int>>{{2, 0}}));
+  // Same translation without the turn: r = 7.3 < q95, rejected.
+  graph.poses[2] = planarPose(0.73, 0.0, 0.0);
+  EXPECT_NEAR(distanceToIdentity(graph, 2, 0, options.covariance_diagonal), 7.3, 1e-12);
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::runtime_error);
 }
 
 TEST(InjectOutliers, SpatialGraphSatisfiesAllConstraints) {
@@ -302,6 +387,8 @@ TEST(InjectOutliers, UsesReferenceForTheGate) {
   options.percent = 50.0;
   const PoseGraph result = injectOutliers(graph, reference, "csail", options);
   expectValidInjection(graph, reference, result, 20, defaultOutlierCovariance("csail", 2));
+  // Gated on the graph's own (identical) poses, no pair would qualify.
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::runtime_error);
 }
 
 TEST(InjectOutliers, DeterministicPerSeed) {
@@ -336,7 +423,10 @@ TEST(InjectOutliers, CountsOnlyTrueLoops) {
   const PoseGraph once = injectOutliers(graph, graph, "csail", options);
   options.seed = 9;
   const PoseGraph twice = injectOutliers(once, graph, "csail", options);
-  EXPECT_EQ(twice.edges.size(), once.edges.size() + 20);
+  EXPECT_EQ(countOutliers(once), 20);
+  EXPECT_EQ(countOutliers(twice), 40);
+  // The second round adds floor(50 * 20 / 50) = 20 (not 40) valid outliers.
+  expectValidInjection(once, graph, twice, 20, defaultOutlierCovariance("csail", 2));
 }
 
 TEST(InjectOutliers, RejectsBadGraphs) {
@@ -408,9 +498,3 @@ TEST(InjectOutliersDataset, ManhattanAgainstGroundTruth) {
 }  // namespace
 }  // namespace core
 }  // namespace agnc_pgo
-
-// catkin_add_gtest links gtest without gtest_main.
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}

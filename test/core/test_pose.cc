@@ -103,29 +103,97 @@ TEST(Pose, RelativePoseErrorZeroForConsistentPoses) {
   EXPECT_LT(e3.norm(), kTol);
 }
 
+// Expected SE(2) residual, worked out here from the Pose2 Logmap formula
+// rho = V(theta)^-1 t, V = [[A, -B], [B, A]], A = sin(theta) / theta,
+// B = (1 - cos(theta)) / theta: V^-1 = [[A, B], [-B, A]] / (A^2 + B^2).
+Eigen::Vector3d expectedLogmap2D(double tx, double ty, double theta) {
+  const double a = std::sin(theta) / theta;
+  const double b = (1.0 - std::cos(theta)) / theta;
+  const double det = a * a + b * b;
+  return Eigen::Vector3d((a * tx + b * ty) / det, (-b * tx + a * ty) / det, theta);
+}
+
+// V(theta) rho: the translation the tangent vector maps back to.
+Eigen::Vector2d expmapTranslation2D(const Eigen::VectorXd& xi) {
+  const double theta = xi(2);
+  const double a = std::sin(theta) / theta;
+  const double b = (1.0 - std::cos(theta)) / theta;
+  return Eigen::Vector2d(a * xi(0) - b * xi(1), b * xi(0) + a * xi(1));
+}
+
 TEST(Pose, RelativePoseErrorKnownOffset2D) {
   // a = identity, z = 1 m ahead turned 90 deg, b is 0.1 m further left and
-  // 0.05 rad more turned: in z's frame the offset is 0.1 m along +x.
+  // 0.05 rad more turned: in z's frame the offset is t = (0.1, 0), dtheta = 0.05.
+  // Logmap: B / (A^2 + B^2) = theta / 2 and A / (A^2 + B^2) = (theta / 2) cot(theta / 2),
+  // so rho = (0.1 * 0.025 * cot(0.025), -0.1 * 0.025) = (0.0999791657985594..., -0.0025).
   const Pose z = Pose::fromSE2(1.0, 0.0, M_PI / 2);
   const Pose b = Pose::fromSE2(1.0, 0.1, M_PI / 2 + 0.05);
   const Eigen::VectorXd e = relativePoseError(2, Pose::identity(), b, z);
   ASSERT_EQ(e.size(), 3);
-  EXPECT_NEAR(e(0), 0.1, kTol);
-  EXPECT_NEAR(e(1), 0.0, kTol);
+  EXPECT_NEAR(e(0), 0.1 * 0.025 / std::tan(0.025), kTol);
+  EXPECT_NEAR(e(0), 0.0999791657985594379, kTol);
+  EXPECT_NEAR(e(1), -0.0025, kTol);
   EXPECT_NEAR(e(2), 0.05, kTol);
+  EXPECT_LT((e - expectedLogmap2D(0.1, 0.0, 0.05)).norm(), kTol);
+  // Not the old plain [t, dtheta]: the rotation couples into rho.
+  EXPECT_GT(std::abs(e(1)), 1e-3);
+  // V(theta) rho gives the relative translation back.
+  EXPECT_LT((expmapTranslation2D(e) - Eigen::Vector2d(0.1, 0.0)).norm(), kTol);
 
-  // A perturbation applied in z's frame is recovered exactly.
+  // A quarter turn with t = (1, 0): A = B = 2 / pi, so rho = (pi / 4, -pi / 4).
+  const Eigen::VectorXd quarter =
+      relativePoseError(2, Pose::identity(), Pose::fromSE2(1.0, 0.0, M_PI / 2), Pose::identity());
+  EXPECT_NEAR(quarter(0), M_PI / 4, kTol);
+  EXPECT_NEAR(quarter(1), -M_PI / 4, kTol);
+  EXPECT_NEAR(quarter(2), M_PI / 2, kTol);
+
+  // A half turn with t = (0, 2): A = 0, B = 2 / pi, so rho = (pi, 0).
+  const Eigen::VectorXd half =
+      relativePoseError(2, Pose::identity(), Pose::fromSE2(0.0, 2.0, M_PI), Pose::identity());
+  EXPECT_NEAR(half(0), M_PI, 1e-12);
+  EXPECT_NEAR(half(1), 0.0, 1e-12);
+  EXPECT_NEAR(half(2), M_PI, 1e-12);
+
+  // A perturbation applied in z's frame is recovered as its own Logmap:
+  // delta = (0.01, -0.02, 0.03) -> rho = V(0.03)^-1 (0.01, -0.02).
   const Pose a = Pose::fromSE2(-3.0, 4.0, 2.8);
   const Pose z2 = Pose::fromSE2(0.7, 0.2, 0.6);
   const Eigen::VectorXd e2 = relativePoseError(2, a, a * z2 * Pose::fromSE2(0.01, -0.02, 0.03), z2);
-  EXPECT_NEAR(e2(0), 0.01, kTol);
-  EXPECT_NEAR(e2(1), -0.02, kTol);
+  EXPECT_NEAR(e2(0), 0.00969924998874975892, kTol);
+  EXPECT_NEAR(e2(1), -0.0201484999774995178, kTol);
   EXPECT_NEAR(e2(2), 0.03, kTol);
+  EXPECT_LT((e2 - expectedLogmap2D(0.01, -0.02, 0.03)).norm(), kTol);
+  EXPECT_LT((expmapTranslation2D(e2) - Eigen::Vector2d(0.01, -0.02)).norm(), kTol);
 
-  // The angle is wrapped: headings 3.0 and -3.0 differ by 2*pi - 6.
+  // The angle is wrapped: headings 3.0 and -3.0 differ by 2*pi - 6; no translation, so rho = 0.
   const Eigen::VectorXd wrapped =
       relativePoseError(2, Pose::fromSE2(0, 0, 3.0), Pose::fromSE2(0, 0, -3.0), Pose::identity());
+  EXPECT_NEAR(wrapped(0), 0.0, kTol);
+  EXPECT_NEAR(wrapped(1), 0.0, kTol);
   EXPECT_NEAR(wrapped(2), 2 * M_PI - 6.0, kTol);
+}
+
+TEST(Pose, RelativePoseErrorPureTranslation2D) {
+  // No rotation: V = I, so the residual is exactly [dx, dy, 0].
+  const Eigen::VectorXd e =
+      relativePoseError(2, Pose::fromSE2(2.0, -1.0, 0.0), Pose::fromSE2(2.5, -0.75, 0.0), Pose::identity());
+  ASSERT_EQ(e.size(), 3);
+  EXPECT_EQ(e(0), 0.5);
+  EXPECT_EQ(e(1), 0.25);
+  EXPECT_EQ(e(2), 0.0);
+
+  const Eigen::VectorXd offset = relativePoseError(2, Pose::identity(), Pose::fromSE2(0.3, -0.2, 0.0),
+                                                   Pose::fromSE2(0.25, -0.125, 0.0));
+  EXPECT_EQ(offset(0), 0.3 - 0.25);
+  EXPECT_EQ(offset(1), -0.2 + 0.125);
+  EXPECT_EQ(offset(2), 0.0);
+
+  // Same heading on both ends, offset given in a's frame.
+  const Pose a = Pose::fromSE2(-3.0, 4.0, 0.8);
+  const Eigen::VectorXd rotated = relativePoseError(2, a, a * Pose::fromSE2(0.4, -0.6, 0.0), Pose::identity());
+  EXPECT_NEAR(rotated(0), 0.4, kTol);
+  EXPECT_NEAR(rotated(1), -0.6, kTol);
+  EXPECT_NEAR(rotated(2), 0.0, kTol);
 }
 
 TEST(Pose, RelativePoseErrorKnownOffset3D) {
@@ -159,9 +227,3 @@ TEST(Pose, RelativePoseErrorKnownOffset3D) {
 }  // namespace
 }  // namespace core
 }  // namespace agnc_pgo
-
-// Own main: links whether or not the build also provides gtest_main.
-int main(int argc, char** argv) {
-  testing::InitGoogleTest(&argc, argv);
-  return RUN_ALL_TESTS();
-}
