@@ -1,0 +1,84 @@
+#!/usr/bin/python3
+"""~save_graph -> ~reset -> ~load_graph restores an identical graph: same
+nodes (stamps), edges, loop-closure states, estimate within 1e-9."""
+import os
+import sys
+import tempfile
+import unittest
+
+import rospy
+import rostest
+from std_srvs.srv import Trigger
+
+from agnc_pgo.msg import GraphStatus, PoseGraph
+from agnc_pgo.srv import LoadGraph, SaveGraph, SetLoopClosureStatus
+import agnc_test_utils as u
+
+
+def edge_key(e):
+    return (e.type, e.from_id, e.to_id, e.loop_index, e.inlier, e.graduating, e.mode, e.source)
+
+
+class SaveLoad(unittest.TestCase):
+    def test_round_trip(self):
+        status = u.Latest(u.BACKEND + "/status", GraphStatus)
+        graph = u.Latest(u.BACKEND + "/pose_graph", PoseGraph)
+        u.wait_for_player(30)
+        s = u.wait_until_settled(status, 30)
+        for name in ("save_graph", "load_graph", "reset", "set_loop_closure_status"):
+            rospy.wait_for_service(u.BACKEND + "/" + name, 10)
+        save = rospy.ServiceProxy(u.BACKEND + "/save_graph", SaveGraph)
+        load = rospy.ServiceProxy(u.BACKEND + "/load_graph", LoadGraph)
+        reset = rospy.ServiceProxy(u.BACKEND + "/reset", Trigger)
+        override = rospy.ServiceProxy(u.BACKEND + "/set_loop_closure_status", SetLoopClosureStatus)
+
+        # One manual override, so that the modes round-trip too.
+        r = override(index=0, mode=SetLoopClosureStatus._request_class.FORCE_OUTLIER)
+        self.assertTrue(r.success, r.message)
+        before = graph.wait_new(10, what="graph after override")
+        self.assertEqual(len(before.nodes), s.nodes)
+
+        directory = tempfile.mkdtemp(prefix="agnc_pgo_test_")
+        filename = os.path.join(directory, "graph.g2o")
+        r = save(filename=filename)
+        self.assertTrue(r.success, r.message)
+        self.assertTrue(os.path.exists(filename) and os.path.exists(filename + ".meta"))
+
+        r = reset()
+        self.assertTrue(r.success, r.message)
+        empty = graph.wait_new(10, what="graph after reset")
+        self.assertEqual(len(empty.nodes), 0)
+        self.assertEqual(status.wait(lambda m: m.nodes == 0, 10).loop_closures, 0)
+
+        # A bad file fails and leaves the (empty) graph alone.
+        r = load(filename=os.path.join(directory, "missing.g2o"))
+        self.assertFalse(r.success)
+        self.assertTrue(r.message)
+
+        r = load(filename=filename)
+        self.assertTrue(r.success, r.message)
+        after = graph.wait(lambda m: len(m.nodes) == len(before.nodes), 10, "graph after load")
+
+        self.assertEqual(after.dimension, before.dimension)
+        self.assertEqual(len(after.edges), len(before.edges))
+        for a, b in zip(before.nodes, after.nodes):
+            self.assertEqual(a.stamp, b.stamp)
+            self.assertLess(u.pose_distance(a.pose, b.pose), 1e-9)
+            self.assertLess(u.pose_distance(a.odom_pose, b.odom_pose), 1e-9)
+        for a, b in zip(before.edges, after.edges):
+            self.assertEqual(edge_key(a), edge_key(b))
+            self.assertLess(u.pose_distance(a.relative_pose, b.relative_pose), 1e-9)
+            self.assertAlmostEqual(a.mu, b.mu, delta=1e-12)
+            self.assertAlmostEqual(a.weight, b.weight, delta=1e-9)
+            for x, y in zip(a.covariance, b.covariance):
+                self.assertAlmostEqual(x, y, delta=1e-9 * max(1.0, abs(x)))
+        loops = u.loop_edges(after)
+        self.assertEqual(loops[0].mode, SetLoopClosureStatus._request_class.FORCE_OUTLIER)
+        self.assertFalse(loops[0].inlier)
+        st = status.wait(lambda m: m.nodes == len(before.nodes), 10)
+        self.assertEqual(st.loop_closures, s.loop_closures)
+
+
+if __name__ == "__main__":
+    rospy.init_node("test_save_load")
+    rostest.rosrun("agnc_pgo", "test_save_load", SaveLoad, sys.argv)
