@@ -148,7 +148,7 @@ void BackendWorker::run() {
 }
 
 void BackendWorker::processBatch(std::deque<Item>* batch) {
-  bool new_keyframes = false;
+  bool changed = false;  // keyframes or (paused) loop closures added
   for (Item& item : *batch) {
     switch (item.kind) {
       case Item::Kind::kOdometry: {
@@ -161,7 +161,7 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
           }
           warn("rejected odometry: " + warning);
         }
-        new_keyframes |= keyframe;
+        changed |= keyframe;
         break;
       }
       case Item::Kind::kLoopClosure: {
@@ -177,6 +177,7 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
         if (added) {
           pending_latency_.push_back(item.loop.received);
           needs_update_ = true;
+          changed = true;
         }
         break;
       }
@@ -210,11 +211,12 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
     if (!added.empty()) {
       pending_latency_.insert(pending_latency_.end(), added.begin(), added.end());
       needs_update_ = true;
+      changed = true;
     }
   }
   if (needs_update_ && !paused_) {
     solve();
-  } else if (new_keyframes) {
+  } else if (changed) {
     graph_dirty_ = true;
     publish(false);
   }
