@@ -12,6 +12,7 @@ const char* const kOdometryNamespace = "odometry";
 const char* const kInlierNamespace = "loop_inliers";
 const char* const kOutlierNamespace = "loop_outliers";
 const char* const kGraduatingNamespace = "loop_graduating";
+const char* const kStatusNamespace = "status";
 
 namespace {
 
@@ -99,7 +100,34 @@ visualization_msgs::MarkerArray makeMarkers(const GraphSnapshot& snapshot, const
       graduating.colors.push_back(c);
     }
   }
+  // Status text above the graph's bounding box.
+  visualization_msgs::Marker text;
+  text.header.frame_id = style.frame;
+  text.ns = kStatusNamespace;
+  text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+  text.action = visualization_msgs::Marker::ADD;
+  text.pose.orientation.w = 1.0;
+  text.color = color(0.0f, 0.0f, 0.0f);
+  {
+    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+    for (const SnapshotNode& n : snapshot.nodes) {
+      lo = lo.cwiseMin(n.pose.translation);
+      hi = hi.cwiseMax(n.pose.translation);
+    }
+    if (snapshot.nodes.empty()) lo = hi = Eigen::Vector3d::Zero();
+    const double size = std::max(5.0, (hi - lo).head<2>().maxCoeff());
+    text.scale.z = 0.04 * size;
+    text.pose.position.x = 0.5 * (lo.x() + hi.x());
+    text.pose.position.y = hi.y() + 0.06 * size;
+    text.pose.position.z = hi.z();
+    const size_t loops = (inliers.points.size() + outliers.points.size() + graduating.points.size()) / 2;
+    text.text = std::to_string(snapshot.nodes.size()) + " nodes | " + std::to_string(loops) + " loop closures: " +
+                std::to_string(inliers.points.size() / 2) + " inliers (green), " +
+                std::to_string(outliers.points.size() / 2) + " outliers (red), " +
+                std::to_string(graduating.points.size() / 2) + " graduating";
+  }
   visualization_msgs::MarkerArray array;
+  array.markers.push_back(text);
   for (visualization_msgs::Marker* m : {&nodes, &odometry, &inliers, &outliers, &graduating}) {
     // An empty LINE_LIST is not drawn: DELETE keeps rviz from showing stale lines.
     if (m->points.empty()) m->action = visualization_msgs::Marker::DELETE;

@@ -27,6 +27,7 @@ extern const char* const kOdometryNamespace;       // "odometry"
 extern const char* const kInlierNamespace;         // "loop_inliers"   (green)
 extern const char* const kOutlierNamespace;        // "loop_outliers"  (red)
 extern const char* const kGraduatingNamespace;     // "loop_graduating" (shaded by weight)
+extern const char* const kStatusNamespace;         // "status" (text above the graph)
 
 nav_msgs::Path makePath(const GraphSnapshot& snapshot, const std::string& frame);
 // One LINE_LIST per loop-closure namespace (2 points per loop closure).
