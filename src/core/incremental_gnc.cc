@@ -135,6 +135,7 @@ int IncrementalGnc::settle(int first, int max_iterations, double last_step, Upda
     stats->factorizations += r.factorizations;
     if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
     last_step = r.mean_step;
+    stats->max_mean_step = std::max(stats->max_mean_step, r.mean_step);
   }
   stats->converged = last_step < options_.convergence_step;
   stats->iterations += done;
@@ -188,7 +189,10 @@ UpdateStats IncrementalGnc::update() {
     ++stats.gnc_steps;
     ++stats.iterations;
     stats.factorizations += r.factorizations;
-    if (r.accepted) last_step = r.mean_step;
+    if (r.accepted) {
+      last_step = r.mean_step;
+      stats.max_mean_step = std::max(stats.max_mean_step, r.mean_step);
+    }
     for (int index : graduating) schedule_.finishStep(&loops_[index].graduation);
     if (options_.early_accept_consistent && r.accepted && r.mean_step < options_.convergence_step)
       acceptConsistent(graduating);
@@ -201,6 +205,13 @@ UpdateStats IncrementalGnc::update() {
                              ? std::max(options_.max_settle_iterations, kMinPlainIterations)
                              : options_.max_settle_iterations;
   settle(first, max_settle, last_step, &stats);
+  // The window held older poses fixed. If the update moved the estimate, let
+  // the whole graph follow (the correction belongs to every pose, not only to
+  // those after the loop closure's oldest endpoint).
+  if (first > 0 && options_.global_refinement &&
+      stats.max_mean_step >= options_.convergence_step) {
+    settle(0, max_settle, std::numeric_limits<double>::infinity(), &stats);
+  }
 
   for (int index : touched) {
     LoopClosure& loop = loops_[index];

@@ -36,6 +36,9 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
     result.runtime_s += seconds;
     if (entry.type == EntryType::kLoopClosure) {
+      auto& histogram = result.solves_per_update_histogram;
+      if (static_cast<int>(histogram.size()) <= stats.iterations) histogram.resize(stats.iterations + 1, 0);
+      ++histogram[stats.iterations];
       result.loop_update_ms.push_back(seconds * 1e3);
       result.loop_update_poses.push_back(engine.numPoses());
     }

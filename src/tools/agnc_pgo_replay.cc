@@ -183,6 +183,10 @@ int main(int argc, char** argv) {
          << "  \"solves\": " << result.solves << ",\n"
          << "  \"gnc_steps\": " << result.gnc_steps << ",\n"
          << "  \"mean_free_poses\": " << jsonNumber(result.mean_free_poses) << ",\n"
+         << "  \"solves_per_update_histogram\": [";
+    for (size_t k = 0; k < result.solves_per_update_histogram.size(); ++k)
+      json << (k ? ", " : "") << result.solves_per_update_histogram[k];
+    json << "],\n"
          << "  \"precision\": " << jsonNumber(result.counts.precision()) << ",\n"
          << "  \"recall\": " << jsonNumber(result.counts.recall()) << ",\n"
          << "  \"true_positives\": " << result.counts.true_positive << ",\n"

@@ -48,6 +48,9 @@ struct GncOptions {
   // Free only the poses from the oldest endpoint of the new loop closures on
   // (older poses held fixed) instead of the whole graph.
   bool local_window = true;
+  // With local_window: after an update that moved the estimate, iterate on
+  // the whole graph until it settles too.
+  bool global_refinement = true;
   // Shortcut: once a GNC step barely moved the estimate (mean step below
   // convergence_step), graduating loop closures that are confident inliers
   // (distance < q(0.25)) jump to mu = 1 and stop graduating: their kernel

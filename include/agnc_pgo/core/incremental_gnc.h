@@ -42,6 +42,7 @@ struct UpdateStats {
   int graduated = 0;       // loop closures that graduated (new + reset)
   int first_variable = 0;  // oldest pose that was free in this update
   bool converged = false;  // mean step per pose below options.convergence_step at the end
+  double max_mean_step = 0.0;  // largest mean tangent step per free pose of any iteration
 };
 
 class IncrementalGnc {

@@ -34,6 +34,7 @@ struct ReplayResult {
   long solves = 0;              // Gauss-Newton iterations over the run
   long gnc_steps = 0;
   double mean_free_poses = 0;   // average number of free poses per solve
+  std::vector<int> solves_per_update_histogram;  // [k] = updates that took k solves
   std::vector<double> loop_update_ms;    // one per update that had loop closures
   std::vector<int> loop_update_poses;    // graph size at each of those updates
   ClassificationCounts counts;
