@@ -26,6 +26,7 @@ IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
       schedule_(options, dimension == 2 ? 3 : 6),
       solver_(dimension, options.shape_c) {
   validate(options_);
+  solver_.setTrustRegion(options_.trust_region, options_.trust_region_radius);
 }
 
 void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& information) {
@@ -185,10 +186,17 @@ UpdateStats IncrementalGnc::update() {
       schedule_.advance(&loop.graduation, schedule_.distanceOf(r));
       solver_.setMu(loop.factor, loop.graduation.mu);
     }
-    const IterationResult r = solver_.iterate(first);
-    ++stats.gnc_steps;
+    IterationResult r = solver_.iterate(first);
     ++stats.iterations;
     stats.factorizations += r.factorizations;
+    for (int extra = 1; extra < options_.iterations_per_step && r.accepted &&
+                        r.mean_step >= options_.convergence_step;
+         ++extra) {
+      r = solver_.iterate(first);
+      ++stats.iterations;
+      stats.factorizations += r.factorizations;
+    }
+    ++stats.gnc_steps;
     if (r.accepted) {
       last_step = r.mean_step;
       stats.max_mean_step = std::max(stats.max_mean_step, r.mean_step);

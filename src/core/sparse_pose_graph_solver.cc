@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <stdexcept>
 
 namespace agnc_pgo {
@@ -14,6 +15,7 @@ using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen:
 using SmallRowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 6, 6>;
 using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;
 constexpr int kMaxDampingAttempts = 6;
+constexpr double kMinRadius = 1e-4;
 
 }  // namespace
 
@@ -232,38 +234,81 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   result.cost_before = cost;
   result.cost_after = cost;
 
-  // Gauss-Newton first; Marquardt damping of the diagonal only on failure.
-  Eigen::VectorXd diagonal(diagonal_offsets_.size());
-  for (size_t k = 0; k < diagonal_offsets_.size(); ++k) diagonal[k] = values[diagonal_offsets_[k]];
   saved_.assign(blocks_.begin() + first, blocks_.end());
-  double lambda = 0.0;
+  Eigen::VectorXd gauss_newton;
+  cholesky_.factorize(hessian_);
+  ++result.factorizations;
+  if (cholesky_.info() == Eigen::Success) gauss_newton = cholesky_.solve(-gradient_);
+  if (gauss_newton.size() == 0 || !gauss_newton.allFinite()) {
+    // Singular system: fall back to steepest descent inside the trust region.
+    gauss_newton = Eigen::VectorXd::Constant(gradient_.size(), std::numeric_limits<double>::infinity());
+  }
+  if (!trust_region_) {
+    takeStep(first, gauss_newton, cost, &result);
+    return result;
+  }
+
+  // Powell's dogleg inside a trust region that persists across iterations
+  // and updates (as iSAM2's Dogleg in riSAM): a single GNC step at a small mu
+  // cannot fold the map towards a new outlier before graduation rejects it.
+  const Eigen::VectorXd hg = hessian_.selfadjointView<Eigen::Lower>() * gradient_;
+  const double g2 = gradient_.squaredNorm();
+  const double ghg = gradient_.dot(hg);
+  const Eigen::VectorXd steepest = ghg > 0 ? Eigen::VectorXd(-(g2 / ghg) * gradient_)
+                                           : Eigen::VectorXd(-gradient_);
   for (int attempt = 0; attempt < kMaxDampingAttempts; ++attempt) {
-    if (attempt > 0) {
-      lambda = attempt == 1 ? 1e-4 : lambda * 10.0;
-      for (size_t k = 0; k < diagonal_offsets_.size(); ++k)
-        values[diagonal_offsets_[k]] = diagonal[k] * (1.0 + lambda) + 1e-9;
+    Eigen::VectorXd step;
+    const double gn_norm = gauss_newton.allFinite() ? gauss_newton.norm() : std::numeric_limits<double>::infinity();
+    if (gn_norm <= radius_) {
+      step = gauss_newton;
+    } else if (steepest.norm() >= radius_ || !gauss_newton.allFinite()) {
+      step = (radius_ / steepest.norm()) * steepest;
+    } else {
+      // Point on the segment steepest -> gauss_newton at distance radius_.
+      const Eigen::VectorXd d = gauss_newton - steepest;
+      const double a = d.squaredNorm(), b = 2.0 * steepest.dot(d),
+                   c = steepest.squaredNorm() - radius_ * radius_;
+      const double tau = (-b + std::sqrt(std::max(0.0, b * b - 4.0 * a * c))) / (2.0 * a);
+      step = steepest + tau * d;
     }
-    cholesky_.factorize(hessian_);
-    ++result.factorizations;
-    if (cholesky_.info() != Eigen::Success) continue;
-    const Eigen::VectorXd delta = cholesky_.solve(-gradient_);
-    if (!delta.allFinite()) continue;
-    double step_sum = 0.0;
-    for (int v = 0; v < nv; ++v) {
-      const double* dv = delta.data() + v * d;
-      manifold_->Plus(saved_[v].data(), dv, blocks_[first + v].data());
-      step_sum += Eigen::Map<const Eigen::VectorXd>(dv, d).norm();
-    }
-    const double new_cost = windowCost();
-    if (new_cost <= cost + 1e-10 * std::abs(cost) + 1e-12) {
-      result.cost_after = new_cost;
-      result.mean_step = step_sum / nv;
-      result.accepted = true;
-      return result;
-    }
-    std::copy(saved_.begin(), saved_.end(), blocks_.begin() + first);
+    const double predicted =
+        -(gradient_.dot(step) + 0.5 * step.dot(hessian_.selfadjointView<Eigen::Lower>() * step));
+    const double step_norm = step.norm();
+    const bool accepted = takeStep(first, step, cost, &result);
+    const double actual = cost - result.cost_after;
+    // Near convergence both decreases are round-off; their ratio says nothing
+    // about the model, so the radius is left alone there.
+    const bool meaningful = predicted > 1e-10 * std::max(1.0, std::abs(cost));
+    const double ratio = predicted > 0 ? actual / predicted : -1.0;
+    if (meaningful && ratio >= 0.75) radius_ = std::max(radius_, 3.0 * step_norm);
+    else if (meaningful && ratio < 0.25) radius_ = std::max(kMinRadius, 0.5 * std::min(radius_, step_norm));
+    if (accepted) return result;
+    if (!meaningful) return result;  // converged: nothing left to gain
   }
   return result;
+}
+
+bool SparsePoseGraphSolver::takeStep(int first, const Eigen::VectorXd& delta, double cost,
+                                     IterationResult* result) {
+  result->cost_after = cost;
+  if (!delta.allFinite()) return false;
+  const int d = tangent_;
+  const int nv = numPoses() - first;
+  double step_sum = 0.0;
+  for (int v = 0; v < nv; ++v) {
+    const double* dv = delta.data() + v * d;
+    manifold_->Plus(saved_[v].data(), dv, blocks_[first + v].data());
+    step_sum += Eigen::Map<const Eigen::VectorXd>(dv, d).norm();
+  }
+  const double new_cost = windowCost();
+  if (new_cost <= cost + 1e-10 * std::abs(cost) + 1e-12) {
+    result->cost_after = new_cost;
+    result->mean_step = step_sum / nv;
+    result->accepted = true;
+    return true;
+  }
+  std::copy(saved_.begin(), saved_.end(), blocks_.begin() + first);
+  return false;
 }
 
 }  // namespace core

@@ -31,7 +31,8 @@ const char* kUsage =
     "                       [--schedule agnc|agnc-fixed|risam|none] [--ground-truth GT.g2o]\n"
     "                       [--output DIR] [--quiet]\n"
     "                       [--distance reference|squared] [--reset none|window|all]\n"
-    "                       [--full-window] [--reference-alpha]\n";
+    "                       [--full-window] [--no-global-refinement] [--settle N] [--iterations-per-step N]\n"
+    "                       [--no-trust-region] [--trust-region-radius R] [--reference-alpha]\n";
 
 struct Arguments {
   std::string input, ground_truth, output;
@@ -67,6 +68,11 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--distance") a.gnc.distance = parseDistanceConvention(value());
     else if (flag == "--reset") a.gnc.reset = parseResetPolicy(value());
     else if (flag == "--full-window") a.gnc.local_window = false;
+    else if (flag == "--settle") a.gnc.max_settle_iterations = static_cast<int>(parseNumber(flag, value()));
+    else if (flag == "--no-global-refinement") a.gnc.global_refinement = false;
+    else if (flag == "--no-trust-region") a.gnc.trust_region = false;
+    else if (flag == "--trust-region-radius") a.gnc.trust_region_radius = parseNumber(flag, value());
+    else if (flag == "--iterations-per-step") a.gnc.iterations_per_step = static_cast<int>(parseNumber(flag, value()));
     else if (flag == "--reference-alpha") a.gnc.reference_alpha_direction = true;
     else if (flag == "--help" || flag == "-h") {
       std::cout << kUsage;

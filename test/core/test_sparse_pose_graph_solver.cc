@@ -29,7 +29,7 @@ std::unique_ptr<SparsePoseGraphSolver> solveIncrementalSolver(const PoseGraph& g
   for (const Edge& e : g.edges) solver.addFactor(e.from, e.to, e.measurement, e.information, FactorMode::kPlain);
   for (int k = 0; k < iterations; ++k) {
     const IterationResult r = solver.iterate(0);
-    if (!r.accepted || r.mean_step < 1e-10) break;
+    if (r.accepted && r.mean_step < 1e-12) break;
   }
   return owned;
 }
@@ -46,12 +46,13 @@ double maxPositionDifference(const SparsePoseGraphSolver& solver, const PoseGrap
 TEST(SparsePoseGraphSolver, NoisyToyGraphReachesGtsamOptimum) {
   const PoseGraph g = readG2o(dataset("noisyToyGraph.g2o"));
   const PoseGraph optimum = readG2o(dataset("noisyToyGraph_optimized.g2o"));
-  const auto owner = solveIncrementalSolver(g, 50);
+  const auto owner = solveIncrementalSolver(g, 200);
   const SparsePoseGraphSolver& solver = *owner;
-  // The stored file is an older GTSAM's solution; it lies up to 1.7e-3 from
+  // The stored file is an older GTSAM's solution; it lies up to 2.4e-3 from
   // the exact optimum that GTSAM 4.3 and this solver both reach (the chi2
-  // check below pins that optimum to 1e-6), hence 2e-3 here.
-  const double tolerance = 2e-3;
+  // check below pins the cost to 1e-6 and the Ceres cross-check below pins
+  // the poses to 1e-5), hence 3e-3 here.
+  const double tolerance = 3e-3;
   for (int i = 0; i < solver.numPoses(); ++i) {
     EXPECT_NEAR(solver.pose(i).translation.x(), optimum.poses[i].translation.x(), tolerance) << i;
     EXPECT_NEAR(solver.pose(i).translation.y(), optimum.poses[i].translation.y(), tolerance) << i;
@@ -62,9 +63,9 @@ TEST(SparsePoseGraphSolver, NoisyToyGraphReachesGtsamOptimum) {
 }
 
 TEST(SparsePoseGraphSolver, AgreesWithCeresOnTwoAndThreeDimensionalGraphs) {
-  for (const std::string name : {"pose2example.g2o", "tinyGrid3D.g2o", "smallGrid3D.g2o", "pose3example.g2o"}) {
+  for (const std::string name : {"noisyToyGraph.g2o", "pose2example.g2o", "tinyGrid3D.g2o", "smallGrid3D.g2o", "pose3example.g2o"}) {
     PoseGraph g = readG2o(dataset(name));
-    const auto solver = solveIncrementalSolver(g, 100);
+    const auto solver = solveIncrementalSolver(g, 200);
     optimizeBatch(&g);
     EXPECT_LT(maxPositionDifference(*solver, g), 1e-5) << name;
   }

@@ -56,6 +56,14 @@ struct GncOptions {
   // (distance < q(0.25)) jump to mu = 1 and stop graduating: their kernel
   // weight hardly depends on mu, so the remaining steps would not move them.
   bool early_accept_consistent = true;
+  // Gauss-Newton iterations per GNC step at most (more only while the mean
+  // step per pose is at least convergence_step). 1 = one warm-started
+  // iteration per step, as riSAM's one iSAM2 update per step.
+  int iterations_per_step = 1;
+  // Dogleg trust region for every iteration (riSAM runs iSAM2 with Dogleg);
+  // the radius persists across updates and starts at trust_region_radius.
+  bool trust_region = true;
+  double trust_region_radius = 1.0;
   // Safety bound on GNC steps per update (a loop closure needs at most 6).
   int max_gnc_steps = 30;
 };

@@ -68,10 +68,18 @@ class SparsePoseGraphSolver {
   // The kernel weight at the factor's current mu (1 for plain, 0 disabled).
   double weight(int factor) const;
 
-  // One Gauss-Newton iteration over the poses with id >= first_variable,
-  // damped (Levenberg-Marquardt style) only if the plain step fails to reduce
-  // the robust cost.
+  // One iteration over the poses with id >= first_variable: the
+  // Gauss-Newton step, or with a trust region Powell's dogleg step. A step
+  // that does not reduce the robust cost is not taken.
   IterationResult iterate(int first_variable);
+
+  // Dogleg trust region (persisting across iterations), radius in the
+  // tangent-space norm of the whole step. Off: plain Gauss-Newton.
+  void setTrustRegion(bool enabled, double initial_radius) {
+    trust_region_ = enabled;
+    radius_ = initial_radius;
+  }
+  double trustRegionRadius() const { return radius_; }
 
   // Robust cost over all factors (0.5 * sum rho).
   double totalCost() const;
@@ -93,6 +101,7 @@ class SparsePoseGraphSolver {
   };
 
   void buildStructure(int first_variable);
+  bool takeStep(int first, const Eigen::VectorXd& delta, double cost, IterationResult* result);
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
   void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;
@@ -115,6 +124,8 @@ class SparsePoseGraphSolver {
   Eigen::VectorXd gradient_;
   Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> cholesky_;
   std::vector<PoseBlock> saved_;
+  bool trust_region_ = true;
+  double radius_ = 1.0;
 };
 
 }  // namespace core
