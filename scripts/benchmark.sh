@@ -1,0 +1,18 @@
+#!/usr/bin/env bash
+# Benchmarks agnc_pgo (../shared/ALGORITHM.md §5): installs missing Debian
+# packages, builds the package in ./build, then runs scripts/benchmark.py with
+# the given arguments (see scripts/benchmark.py --help), which writes
+# doc/benchmark.md and its plots. Run it on a quiet machine.
+#   scripts/benchmark.sh --quick            # CSAIL and Intel logs only
+#   scripts/benchmark.sh --seeds 1,2,3 --repeat 3
+set -eo pipefail
+source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
+
+agnc_install_dependencies
+agnc_build
+
+# Recorded in doc/benchmark.md as the command that reproduces the run.
+AGNC_BENCHMARK_COMMAND="scripts/benchmark.sh$(printf ' %q' "$@")"
+export AGNC_BENCHMARK_COMMAND
+# The tool just built (a --tool among the arguments overrides it).
+exec /usr/bin/python3 "$AGNC_ROOT/scripts/benchmark.py" --tool "$AGNC_BUILD/devel/lib/agnc_pgo/agnc_pgo_replay" "$@"
