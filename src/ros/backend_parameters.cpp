@@ -132,6 +132,11 @@ BackendParameters readParameters(const ros::NodeHandle& nh) {
   get(nh, "gnc/adapt_initial_mu", &p.gnc.adapt_initial_mu, "a bool");
   get(nh, "gnc/local_window", &p.gnc.local_window, "a bool");
   get(nh, "gnc/max_gnc_steps", &p.gnc.max_gnc_steps, "an integer");
+  get(nh, "gnc/global_refinement", &p.gnc.global_refinement, "a bool");
+  get(nh, "gnc/early_accept_consistent", &p.gnc.early_accept_consistent, "a bool");
+  get(nh, "gnc/iterations_per_step", &p.gnc.iterations_per_step, "an integer");
+  get(nh, "gnc/trust_region", &p.gnc.trust_region, "a bool");
+  getDouble(nh, "gnc/trust_region_radius", &p.gnc.trust_region_radius);
   get(nh, "optimize_iterations", &p.optimize_iterations, "an integer");
 
   getDouble(nh, "tf_rate", &p.tf_rate);
@@ -161,6 +166,9 @@ std::string describe(const BackendParameters& p) {
       << "  gnc: schedule " << core::toString(p.gnc.schedule) << ", distance "
       << core::toString(p.gnc.distance) << ", reset " << core::toString(p.gnc.reset) << ", shape_c "
       << p.gnc.shape_c << ", local_window " << (p.gnc.local_window ? "true" : "false")
+      << ", global_refinement " << (p.gnc.global_refinement ? "true" : "false")
+      << ", trust_region " << (p.gnc.trust_region ? "true" : "false") << " (radius "
+      << p.gnc.trust_region_radius << ")"
       << ", max_settle_iterations " << p.gnc.max_settle_iterations << ", convergence_step "
       << p.gnc.convergence_step << ", max_gnc_steps " << p.gnc.max_gnc_steps << "\n"
       << "  tf_rate " << p.tf_rate << " Hz (future-dated " << p.tf_future_tolerance << " s), visualization_rate "
