@@ -1,5 +1,6 @@
 """Helpers shared by the agnc_pgo rostest nodes (imported from the same directory)."""
 import math
+import os
 import time
 
 import rospy
@@ -51,9 +52,10 @@ def wait_for_player(timeout=60.0):
     done.wait(lambda m: m.data, timeout, "dataset_player done")
 
 
-def wait_until_settled(status, timeout=60.0, quiet=1.0):
-    """Waits until every received message is in the graph, nothing graduates
-    and the status has not changed for `quiet` seconds."""
+def wait_until_settled(status, timeout=60.0, quiet=1.0, predicate=lambda s: True):
+    """Waits until every received message is in the graph, nothing graduates,
+    `predicate(status)` holds and the status has not changed for `quiet`
+    seconds."""
     deadline = time.time() + timeout
     last_key, since = None, time.time()
     while time.time() < deadline and not rospy.is_shutdown():
@@ -62,7 +64,8 @@ def wait_until_settled(status, timeout=60.0, quiet=1.0):
             key = (s.nodes, s.loop_closures, s.loop_closure_messages, s.odometry_messages,
                    s.rejected_loop_closures, s.inliers, s.outliers)
             ready = (s.graduating == 0 and s.held_loop_closures == 0 and
-                     s.loop_closures + s.rejected_loop_closures == s.loop_closure_messages)
+                     s.loop_closures + s.rejected_loop_closures == s.loop_closure_messages and
+                     predicate(s))
             if key != last_key:
                 last_key, since = key, time.time()
             elif ready and time.time() - since >= quiet:
@@ -82,3 +85,25 @@ def pose_distance(a, b):
     qb = (b.orientation.x, b.orientation.y, b.orientation.z, b.orientation.w)
     dq = min(sum((x - y) ** 2 for x, y in zip(qa, qb)), sum((x + y) ** 2 for x, y in zip(qa, qb)))
     return math.sqrt(dt + dq)
+
+
+def find_executable(name, package="agnc_pgo"):
+    """Absolute path of `package`'s executable `name` (lib/<package>/<name>)
+    in the devel/install spaces of the environment (CMAKE_PREFIX_PATH, first
+    match wins, as `catkin_find --libexec --first-only`). Not `rosrun`: it
+    skips everything below <package source>/build/, where scripts/test.sh
+    builds."""
+    candidates = []
+    try:
+        from catkin.find_in_workspaces import find_in_workspaces
+        candidates += find_in_workspaces(["libexec"], project=package, path=name)
+    except ImportError:
+        pass
+    for prefix in os.environ.get("CMAKE_PREFIX_PATH", "").split(os.pathsep):
+        if prefix:
+            candidates.append(os.path.join(prefix, "lib", package, name))
+    for path in candidates:
+        if os.path.isfile(path) and os.access(path, os.X_OK):
+            return path
+    raise AssertionError("executable %s/%s not found in CMAKE_PREFIX_PATH=%s (looked at: %s)" % (
+        package, name, os.environ.get("CMAKE_PREFIX_PATH"), candidates))
