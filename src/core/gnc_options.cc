@@ -58,6 +58,8 @@ void validate(const GncOptions& o) {
   if (o.max_gnc_steps < 6) throw std::invalid_argument("max_gnc_steps must be >= 6");
   if (o.iterations_per_step < 1) throw std::invalid_argument("iterations_per_step must be >= 1");
   if (!(o.trust_region_radius > 0.0)) throw std::invalid_argument("trust_region_radius must be > 0");
+  if (!(o.max_trust_region_radius >= o.trust_region_radius))
+    throw std::invalid_argument("max_trust_region_radius must be >= trust_region_radius");
 }
 
 }  // namespace core

@@ -26,7 +26,8 @@ IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
       schedule_(options, dimension == 2 ? 3 : 6),
       solver_(dimension, options.shape_c) {
   validate(options_);
-  solver_.setTrustRegion(options_.trust_region, options_.trust_region_radius);
+  solver_.setTrustRegion(options_.trust_region, options_.trust_region_radius,
+                         options_.max_trust_region_radius);
 }
 
 void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& information) {

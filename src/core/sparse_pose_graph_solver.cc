@@ -280,7 +280,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
     // about the model, so the radius is left alone there.
     const bool meaningful = predicted > 1e-10 * std::max(1.0, std::abs(cost));
     const double ratio = predicted > 0 ? actual / predicted : -1.0;
-    if (meaningful && ratio >= 0.75) radius_ = std::max(radius_, 3.0 * step_norm);
+    if (meaningful && ratio >= 0.75) radius_ = std::min(max_radius_, std::max(radius_, 3.0 * step_norm));
     else if (meaningful && ratio < 0.25) radius_ = std::max(kMinRadius, 0.5 * std::min(radius_, step_norm));
     if (accepted) return result;
     if (!meaningful) return result;  // converged: nothing left to gain

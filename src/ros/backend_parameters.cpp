@@ -137,6 +137,7 @@ BackendParameters readParameters(const ros::NodeHandle& nh) {
   get(nh, "gnc/iterations_per_step", &p.gnc.iterations_per_step, "an integer");
   get(nh, "gnc/trust_region", &p.gnc.trust_region, "a bool");
   getDouble(nh, "gnc/trust_region_radius", &p.gnc.trust_region_radius);
+  getDouble(nh, "gnc/max_trust_region_radius", &p.gnc.max_trust_region_radius);
   get(nh, "optimize_iterations", &p.optimize_iterations, "an integer");
 
   getDouble(nh, "tf_rate", &p.tf_rate);

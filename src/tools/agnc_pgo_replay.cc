@@ -72,6 +72,7 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--no-global-refinement") a.gnc.global_refinement = false;
     else if (flag == "--no-trust-region") a.gnc.trust_region = false;
     else if (flag == "--trust-region-radius") a.gnc.trust_region_radius = parseNumber(flag, value());
+    else if (flag == "--max-trust-region-radius") a.gnc.max_trust_region_radius = parseNumber(flag, value());
     else if (flag == "--iterations-per-step") a.gnc.iterations_per_step = static_cast<int>(parseNumber(flag, value()));
     else if (flag == "--reference-alpha") a.gnc.reference_alpha_direction = true;
     else if (flag == "--help" || flag == "-h") {

@@ -61,9 +61,13 @@ struct GncOptions {
   // iteration per step, as riSAM's one iSAM2 update per step.
   int iterations_per_step = 1;
   // Dogleg trust region for every iteration (riSAM runs iSAM2 with Dogleg);
-  // the radius persists across updates and starts at trust_region_radius.
+  // the radius persists across updates, starts at trust_region_radius and
+  // never grows past max_trust_region_radius: a radius grown on long
+  // drift corrections would otherwise let a new outlier's mu = 0 step fold
+  // the map (M3500 at 30 % outliers: ATE 10.7 m uncapped, 0.76 m capped at 3).
   bool trust_region = true;
   double trust_region_radius = 1.0;
+  double max_trust_region_radius = 3.0;
   // Safety bound on GNC steps per update (a loop closure needs at most 6).
   int max_gnc_steps = 30;
 };

@@ -75,9 +75,10 @@ class SparsePoseGraphSolver {
 
   // Dogleg trust region (persisting across iterations), radius in the
   // tangent-space norm of the whole step. Off: plain Gauss-Newton.
-  void setTrustRegion(bool enabled, double initial_radius) {
+  void setTrustRegion(bool enabled, double initial_radius, double max_radius) {
     trust_region_ = enabled;
     radius_ = initial_radius;
+    max_radius_ = max_radius;
   }
   double trustRegionRadius() const { return radius_; }
 
@@ -126,6 +127,7 @@ class SparsePoseGraphSolver {
   std::vector<PoseBlock> saved_;
   bool trust_region_ = true;
   double radius_ = 1.0;
+  double max_radius_ = 1e3;
 };
 
 }  // namespace core
