@@ -32,7 +32,8 @@ const char* kUsage =
     "                       [--output DIR] [--quiet]\n"
     "                       [--distance reference|squared] [--reset none|window|all]\n"
     "                       [--full-window] [--no-global-refinement] [--settle N] [--iterations-per-step N]\n"
-    "                       [--no-trust-region] [--trust-region-radius R] [--reference-alpha]\n";
+    "                       [--no-trust-region] [--trust-region-radius R] [--max-trust-region-radius R]\n"
+    "                       [--reference-alpha]\n";
 
 struct Arguments {
   std::string input, ground_truth, output;
