@@ -13,6 +13,7 @@
 #include <vector>
 
 #include <Eigen/Cholesky>
+#include "tokenize.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -33,18 +34,6 @@ struct Where {
 
 [[noreturn]] void fail(const Where& where, const std::string& reason) {
   throw ParseError(where.file, where.line, reason);
-}
-
-std::vector<std::string> tokenize(const std::string& line) {
-  std::vector<std::string> tokens;
-  const char* whitespace = " \t\r\n\v\f";
-  std::string::size_type begin = line.find_first_not_of(whitespace);
-  while (begin != std::string::npos) {
-    const std::string::size_type end = line.find_first_of(whitespace, begin);
-    tokens.push_back(line.substr(begin, end - begin));
-    begin = line.find_first_not_of(whitespace, end);
-  }
-  return tokens;
 }
 
 double parseNumber(const Where& where, const std::string& token) {

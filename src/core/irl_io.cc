@@ -10,6 +10,7 @@
 #include <vector>
 
 #include <Eigen/Cholesky>
+#include "tokenize.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -23,18 +24,6 @@ std::string trim(const std::string& text) {
   const std::string::size_type begin = text.find_first_not_of(whitespace);
   if (begin == std::string::npos) return "";
   return text.substr(begin, text.find_last_not_of(whitespace) - begin + 1);
-}
-
-std::vector<std::string> tokenize(const std::string& line) {
-  std::vector<std::string> tokens;
-  const char* whitespace = " \t\r\n\v\f";
-  std::string::size_type begin = line.find_first_not_of(whitespace);
-  while (begin != std::string::npos) {
-    const std::string::size_type end = line.find_first_of(whitespace, begin);
-    tokens.push_back(line.substr(begin, end - begin));
-    begin = line.find_first_not_of(whitespace, end);
-  }
-  return tokens;
 }
 
 // Walks the tokens of one entry; every failure names file, line and what was
