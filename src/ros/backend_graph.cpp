@@ -188,12 +188,13 @@ void BackendGraph::rollBack() {
   rememberGood();
 }
 
-bool BackendGraph::update(core::UpdateStats* stats, std::string* error) {
+bool BackendGraph::guardedSolve(const std::string& what, const std::function<core::UpdateStats()>& solve,
+                                core::UpdateStats* stats, std::string* error) {
   try {
-    *stats = engine_->update();
+    *stats = solve();
     if (!finitePoses(*engine_)) throw std::runtime_error("the estimate became non-finite");
   } catch (const std::exception& e) {
-    *error = std::string("update failed (") + e.what() + "); kept the last good estimate";
+    *error = what + " failed (" + e.what() + "); kept the last good estimate";
     rollBack();
     return false;
   }
@@ -201,18 +202,15 @@ bool BackendGraph::update(core::UpdateStats* stats, std::string* error) {
   return true;
 }
 
+bool BackendGraph::update(core::UpdateStats* stats, std::string* error) {
+  return guardedSolve("update", [this] { return engine_->update(); }, stats, error);
+}
+
 bool BackendGraph::optimize(core::UpdateStats* stats, std::string* error) {
-  try {
+  return guardedSolve("optimisation", [this] {
     if (engine_->pendingLoopClosures() > 0) engine_->update();
-    *stats = engine_->optimize(parameters_.optimize_iterations);
-    if (!finitePoses(*engine_)) throw std::runtime_error("the estimate became non-finite");
-  } catch (const std::exception& e) {
-    *error = std::string("optimisation failed (") + e.what() + "); kept the last good estimate";
-    rollBack();
-    return false;
-  }
-  rememberGood();
-  return true;
+    return engine_->optimize(parameters_.optimize_iterations);
+  }, stats, error);
 }
 
 void BackendGraph::setOverride(int index, core::LoopOverride mode) { engine_->setOverride(index, mode); }

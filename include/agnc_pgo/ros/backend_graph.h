@@ -4,6 +4,7 @@
 #pragma once
 
 #include <deque>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -95,6 +96,10 @@ class BackendGraph {
   std::string tryAddLoop(const LoopClosureInput& input, bool* added, bool* hold);
   void rememberGood();
   void rollBack();
+  // Runs a solve; a throw or a non-finite estimate rolls back to the last
+  // good state and reports `what` failed.
+  bool guardedSolve(const std::string& what, const std::function<core::UpdateStats()>& solve,
+                    core::UpdateStats* stats, std::string* error);
   std::unique_ptr<core::IncrementalGnc> build(const SavedGraph& saved) const;
 
   BackendParameters parameters_;
