@@ -147,6 +147,9 @@ int IncrementalGnc::settle(int first, int max_iterations, double last_step, Upda
 UpdateStats IncrementalGnc::update() {
   UpdateStats stats;
   if (pending_.empty() && needs_restart_.empty()) return stats;
+  // Every update starts with a small trust region that grows only while the
+  // steps agree with the model (see GncOptions::restart_trust_region).
+  if (options_.restart_trust_region) solver_.setTrustRegionRadius(options_.trust_region_radius);
 
   // The oldest pose a new loop closure (or changed override) touches.
   int oldest = numPoses();
@@ -165,15 +168,32 @@ UpdateStats IncrementalGnc::update() {
     schedule_.start(&loop.graduation);
     if (loop.graduation.graduating) graduating.push_back(index);
   };
-  for (int index : pending_) select(index);
+  std::vector<int> touched;
+  bool all_consistent = needs_restart_.empty();
+  for (int index : pending_) {
+    LoopClosure& loop = loops_[index];
+    if (options_.accept_consistent_on_arrival && loop.override_mode == LoopOverride::kAuto &&
+        options_.schedule != ScheduleKind::kNone &&
+        schedule_.distanceOf(solver_.whitenedNorm(loop.factor)) < schedule_.thresholds().q25) {
+      selected[index] = 1;
+      schedule_.start(&loop.graduation);
+      loop.graduation.mu = 1.0;
+      loop.graduation.graduating = false;
+      solver_.setMu(loop.factor, 1.0);
+      touched.push_back(index);
+      continue;
+    }
+    all_consistent = false;
+    select(index);
+  }
   for (int index : needs_restart_) select(index);
-  if (options_.reset != ResetPolicy::kNone) {
+  if (options_.reset != ResetPolicy::kNone && !all_consistent) {
     for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
       const Edge& e = loops_[index].edge;
       if (options_.reset == ResetPolicy::kAll || std::max(e.from, e.to) >= oldest) select(index);
     }
   }
-  std::vector<int> touched = graduating;
+  touched.insert(touched.end(), graduating.begin(), graduating.end());
   stats.graduated = static_cast<int>(graduating.size());
   const int first = options_.local_window ? oldest : 0;
   stats.first_variable = first;

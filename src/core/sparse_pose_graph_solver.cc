@@ -5,15 +5,12 @@
 #include <limits>
 #include <stdexcept>
 
+#include <Eigen/OrderingMethods>
+
 namespace agnc_pgo {
 namespace core {
 namespace {
 
-using RowMajorMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-// At most 6x6: fixed capacity keeps the per-factor products off the heap.
-using SmallMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::ColMajor, 6, 6>;
-using SmallRowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 6, 6>;
-using SmallVector = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, 6, 1>;
 constexpr int kMaxDampingAttempts = 6;
 constexpr double kMinRadius = 1e-4;
 
@@ -27,6 +24,10 @@ SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
       manifold_(makePoseManifold(dimension)),
       anchor_(toBlock(dimension, Pose::identity())) {
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
+  // The Hessian is assembled already permuted by a fill-reducing ordering of
+  // its block pattern (buildStructure), so CHOLMOD is told to keep the order:
+  // no AMD on the 9-36x larger scalar pattern, and no permuted copy of the
+  // matrix before every numeric factorisation.
 }
 
 int SparsePoseGraphSolver::addPose(const Pose& initial) {
@@ -61,9 +62,9 @@ void SparsePoseGraphSolver::evaluate(const Factor& f, double* residual, double* 
       return;
     }
     manifold_->PlusJacobian(x, plus);
-    Eigen::Map<RowMajorMatrix>(local, tangent_, tangent_) =
-        Eigen::Map<const RowMajorMatrix>(ambient, tangent_, ambient_) *
-        Eigen::Map<const RowMajorMatrix>(plus, ambient_, tangent_);
+    Eigen::Map<Eigen::Matrix<double, 6, 6, Eigen::RowMajor>> out(local);
+    out = Eigen::Map<const Eigen::Matrix<double, 6, 7, Eigen::RowMajor>>(ambient) *
+          Eigen::Map<const Eigen::Matrix<double, 7, 6, Eigen::RowMajor>>(plus);
   };
   if (jac_a) to_local(parameters[0], ambient_a, jac_a);
   if (jac_b) to_local(parameters[1], ambient_b, jac_b);
@@ -116,19 +117,41 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   const int nv = numPoses() - first;
   auto var = [first](int id) { return id >= first ? id - first : -1; };
 
-  // Block rows I >= J present in each block column J (lower triangle: CHOLMOD
-  // factorises the lower form without transposing it first).
-  std::vector<std::vector<int>> rows(nv);
-  for (int j = 0; j < nv; ++j) rows[j].push_back(j);
+  // The factors that touch a variable, and the block pattern they make.
   slots_.clear();
+  std::vector<Eigen::Triplet<double>> pattern;
+  pattern.reserve(nv + numFactors());
+  for (int v = 0; v < nv; ++v) pattern.emplace_back(v, v, 1.0);
   for (int k = 0; k < numFactors(); ++k) {
     const Factor& f = factors_[k];
-    const int ia = f.a == kAnchor ? -1 : var(f.a);
-    const int ib = var(f.b);
-    if (ia < 0 && ib < 0) continue;
-    if (ia >= 0 && ib >= 0) rows[std::min(ia, ib)].push_back(std::max(ia, ib));
-    slots_.push_back(FactorSlot{k, ia, ib, 0, 0, 0, 0, 0, 0});
+    const int va = f.a == kAnchor ? -1 : var(f.a);
+    const int vb = var(f.b);
+    if (va < 0 && vb < 0) continue;
+    if (va >= 0 && vb >= 0) pattern.emplace_back(std::max(va, vb), std::min(va, vb), 1.0);
+    slots_.push_back(FactorSlot{k, va, vb, 0, 0, 0, 0, 0, 0});
   }
+
+  // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
+  // block row of variable v in the permuted Hessian.
+  Eigen::SparseMatrix<double> lower(nv, nv);
+  lower.setFromTriplets(pattern.begin(), pattern.end());
+  Eigen::SparseMatrix<double> blocks;
+  blocks = lower.selfadjointView<Eigen::Lower>();
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
+  Eigen::AMDOrdering<int>()(blocks, order);
+  position_.resize(nv);
+  for (int k = 0; k < nv; ++k) position_[order.indices()[k]] = k;
+  for (FactorSlot& s : slots_) {
+    if (s.ia >= 0) s.ia = position_[s.ia];
+    if (s.ib >= 0) s.ib = position_[s.ib];
+  }
+
+  // Block rows I <= J present in each block column J (the upper triangle,
+  // which the simplicial Cholesky factorises in place, without a copy).
+  std::vector<std::vector<int>> rows(nv);
+  for (int j = 0; j < nv; ++j) rows[j].push_back(j);
+  for (const FactorSlot& s : slots_)
+    if (s.ia >= 0 && s.ib >= 0) rows[std::max(s.ia, s.ib)].push_back(std::min(s.ia, s.ib));
   std::vector<long> column_start(nv + 1, 0);
   for (int j = 0; j < nv; ++j) {
     std::sort(rows[j].begin(), rows[j].end());
@@ -153,7 +176,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   }
   outer[n] = static_cast<int>(column_start[nv]);
 
-  // Offset of block (i, j), i >= j: base + c * stride + r for entry (r, c).
+  // Offset of block (i, j), i <= j: base + c * stride + r for entry (r, c).
   auto locate = [&](int i, int j, long* base, long* stride) {
     const auto it = std::lower_bound(rows[j].begin(), rows[j].end(), i);
     *stride = static_cast<long>(rows[j].size()) * d;
@@ -163,13 +186,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     if (s.ia >= 0) locate(s.ia, s.ia, &s.base_aa, &s.stride_aa);
     if (s.ib >= 0) locate(s.ib, s.ib, &s.base_bb, &s.stride_bb);
     if (s.ia >= 0 && s.ib >= 0)
-      locate(std::max(s.ia, s.ib), std::min(s.ia, s.ib), &s.base_ab, &s.stride_ab);
-  }
-  diagonal_offsets_.resize(n);
-  for (int j = 0; j < nv; ++j) {
-    long base, stride;
-    locate(j, j, &base, &stride);
-    for (int c = 0; c < d; ++c) diagonal_offsets_[j * d + c] = base + c * stride + c;
+      locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
   }
   gradient_.resize(n);
   cholesky_.analyzePattern(hessian_);
@@ -177,6 +194,55 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   structure_first_ = first;
   structure_poses_ = numPoses();
   structure_factors_ = numFactors();
+}
+
+template <int D>
+double SparsePoseGraphSolver::linearize() {
+  using Jacobian = Eigen::Matrix<double, D, D, Eigen::RowMajor>;
+  using Block = Eigen::Matrix<double, D, D>;
+  using Vector = Eigen::Matrix<double, D, 1>;
+  double* values = hessian_.valuePtr();
+  std::fill(values, values + hessian_.nonZeros(), 0.0);
+  gradient_.setZero();
+  auto add_block = [values](long base, long stride, const Block& block) {
+    for (int c = 0; c < D; ++c)
+      for (int r = 0; r < D; ++r) values[base + c * stride + r] += block(r, c);
+  };
+
+  // H += w J^T J, g += w J^T r (IRLS weights of the SIG loss).
+  double cost = 0.0;
+  Vector r;
+  Jacobian ja, jb;
+  for (const FactorSlot& s : slots_) {
+    const Factor& f = factors_[s.factor];
+    if (f.mode == FactorMode::kDisabled) continue;
+    evaluate(f, r.data(), s.ia >= 0 ? ja.data() : nullptr, s.ib >= 0 ? jb.data() : nullptr);
+    double w = 1.0;
+    if (f.mode == FactorMode::kRobust) {
+      double rho[3];
+      f.loss.Evaluate(r.squaredNorm(), rho);
+      w = rho[1];
+      cost += 0.5 * rho[0];
+    } else {
+      cost += 0.5 * r.squaredNorm();
+    }
+    if (s.ia >= 0) {
+      const Block wja = w * ja.transpose();
+      add_block(s.base_aa, s.stride_aa, wja * ja);
+      gradient_.template segment<D>(s.ia * D) += wja * r;
+      if (s.ib >= 0) {
+        // Block (min, max) of the upper triangle: J_min^T J_max.
+        if (s.ia < s.ib) add_block(s.base_ab, s.stride_ab, wja * jb);
+        else add_block(s.base_ab, s.stride_ab, w * jb.transpose() * ja);
+      }
+    }
+    if (s.ib >= 0) {
+      const Block wjb = w * jb.transpose();
+      add_block(s.base_bb, s.stride_bb, wjb * jb);
+      gradient_.template segment<D>(s.ib * D) += wjb * r;
+    }
+  }
+  return cost;
 }
 
 IterationResult SparsePoseGraphSolver::iterate(int first) {
@@ -188,49 +254,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
       numFactors() != structure_factors_)
     buildStructure(first);
 
-  const int d = tangent_;
-  double* values = hessian_.valuePtr();
-  std::fill(values, values + hessian_.nonZeros(), 0.0);
-  gradient_.setZero();
-
-  // Linearise: H += w J^T J, g += w J^T r (IRLS weights of the SIG loss).
-  double residual[6], jac_a[36], jac_b[36];
-  double cost = 0.0;
-  for (const FactorSlot& s : slots_) {
-    const Factor& f = factors_[s.factor];
-    if (f.mode == FactorMode::kDisabled) continue;
-    evaluate(f, residual, s.ia >= 0 ? jac_a : nullptr, s.ib >= 0 ? jac_b : nullptr);
-    Eigen::Map<const Eigen::VectorXd> r(residual, d);
-    double w = 1.0;
-    if (f.mode == FactorMode::kRobust) {
-      double rho[3];
-      f.loss.Evaluate(r.squaredNorm(), rho);
-      w = rho[1];
-      cost += 0.5 * rho[0];
-    } else {
-      cost += 0.5 * r.squaredNorm();
-    }
-    const SmallRowMajor ja = Eigen::Map<const RowMajorMatrix>(jac_a, d, d);
-    const SmallRowMajor jb = Eigen::Map<const RowMajorMatrix>(jac_b, d, d);
-    const SmallVector rv = r;
-    auto add_block = [&](long base, long stride, const SmallMatrix& block) {
-      for (int c = 0; c < d; ++c)
-        for (int rr = 0; rr < d; ++rr) values[base + c * stride + rr] += block(rr, c);
-    };
-    if (s.ia >= 0) {
-      add_block(s.base_aa, s.stride_aa, w * ja.transpose() * ja);
-      gradient_.segment(s.ia * d, d) += w * ja.transpose() * rv;
-    }
-    if (s.ib >= 0) {
-      add_block(s.base_bb, s.stride_bb, w * jb.transpose() * jb);
-      gradient_.segment(s.ib * d, d) += w * jb.transpose() * rv;
-    }
-    if (s.ia >= 0 && s.ib >= 0) {
-      // Block (max, min) of the lower triangle: J_max^T J_min.
-      if (s.ia > s.ib) add_block(s.base_ab, s.stride_ab, w * ja.transpose() * jb);
-      else add_block(s.base_ab, s.stride_ab, w * jb.transpose() * ja);
-    }
-  }
+  const double cost = tangent_ == 3 ? linearize<3>() : linearize<6>();
   result.cost_before = cost;
   result.cost_after = cost;
 
@@ -251,7 +275,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   // Powell's dogleg inside a trust region that persists across iterations
   // and updates (as iSAM2's Dogleg in riSAM): a single GNC step at a small mu
   // cannot fold the map towards a new outlier before graduation rejects it.
-  const Eigen::VectorXd hg = hessian_.selfadjointView<Eigen::Lower>() * gradient_;
+  const Eigen::VectorXd hg = hessian_.selfadjointView<Eigen::Upper>() * gradient_;
   const double g2 = gradient_.squaredNorm();
   const double ghg = gradient_.dot(hg);
   const Eigen::VectorXd steepest = ghg > 0 ? Eigen::VectorXd(-(g2 / ghg) * gradient_)
@@ -272,7 +296,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
       step = steepest + tau * d;
     }
     const double predicted =
-        -(gradient_.dot(step) + 0.5 * step.dot(hessian_.selfadjointView<Eigen::Lower>() * step));
+        -(gradient_.dot(step) + 0.5 * step.dot(hessian_.selfadjointView<Eigen::Upper>() * step));
     const double step_norm = step.norm();
     const bool accepted = takeStep(first, step, cost, &result);
     const double actual = cost - result.cost_after;
@@ -296,7 +320,7 @@ bool SparsePoseGraphSolver::takeStep(int first, const Eigen::VectorXd& delta, do
   const int nv = numPoses() - first;
   double step_sum = 0.0;
   for (int v = 0; v < nv; ++v) {
-    const double* dv = delta.data() + v * d;
+    const double* dv = delta.data() + static_cast<long>(position_[v]) * d;
     manifold_->Plus(saved_[v].data(), dv, blocks_[first + v].data());
     step_sum += Eigen::Map<const Eigen::VectorXd>(dv, d).norm();
   }

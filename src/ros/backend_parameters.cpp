@@ -134,10 +134,12 @@ BackendParameters readParameters(const ros::NodeHandle& nh) {
   get(nh, "gnc/max_gnc_steps", &p.gnc.max_gnc_steps, "an integer");
   get(nh, "gnc/global_refinement", &p.gnc.global_refinement, "a bool");
   get(nh, "gnc/early_accept_consistent", &p.gnc.early_accept_consistent, "a bool");
+  get(nh, "gnc/accept_consistent_on_arrival", &p.gnc.accept_consistent_on_arrival, "a bool");
   get(nh, "gnc/iterations_per_step", &p.gnc.iterations_per_step, "an integer");
   get(nh, "gnc/trust_region", &p.gnc.trust_region, "a bool");
   getDouble(nh, "gnc/trust_region_radius", &p.gnc.trust_region_radius);
   getDouble(nh, "gnc/max_trust_region_radius", &p.gnc.max_trust_region_radius);
+  get(nh, "gnc/restart_trust_region", &p.gnc.restart_trust_region, "a bool");
   get(nh, "optimize_iterations", &p.optimize_iterations, "an integer");
 
   getDouble(nh, "tf_rate", &p.tf_rate);
@@ -169,7 +171,9 @@ std::string describe(const BackendParameters& p) {
       << p.gnc.shape_c << ", local_window " << (p.gnc.local_window ? "true" : "false")
       << ", global_refinement " << (p.gnc.global_refinement ? "true" : "false")
       << ", trust_region " << (p.gnc.trust_region ? "true" : "false") << " (radius "
-      << p.gnc.trust_region_radius << ")"
+      << p.gnc.trust_region_radius << (p.gnc.restart_trust_region ? ", restarted per update" : ", carried over")
+      << ", max " << p.gnc.max_trust_region_radius << ")"
+      << ", accept_consistent_on_arrival " << (p.gnc.accept_consistent_on_arrival ? "true" : "false")
       << ", max_settle_iterations " << p.gnc.max_settle_iterations << ", convergence_step "
       << p.gnc.convergence_step << ", max_gnc_steps " << p.gnc.max_gnc_steps << "\n"
       << "  tf_rate " << p.tf_rate << " Hz (future-dated " << p.tf_future_tolerance << " s), visualization_rate "

@@ -1,12 +1,19 @@
-// A warm-started Gauss-Newton solver for pose graphs that keeps CHOLMOD's
-// symbolic factorisation while the structure does not change.
+// A warm-started Gauss-Newton / dogleg solver for pose graphs.
 //
 // Why not ceres::Solve per GNC step: every Solve() call re-runs Ceres'
-// preprocessing and CHOLMOD's symbolic analysis over the whole graph, which
-// dominates the cost of the one or two iterations a warm-started GNC step
-// needs. Here the error terms are still Ceres cost functions and manifolds
-// (evaluated through ceres::CostFunction::Evaluate), but the normal equations
-// are assembled into a pre-built block pattern and factorised numerically only.
+// preprocessing and a symbolic analysis over the whole graph, which dominates
+// the cost of the one or two iterations a warm-started GNC step needs. Here
+// the error terms are still Ceres cost functions and manifolds (evaluated
+// through ceres::CostFunction::Evaluate), but the normal equations are
+// assembled into a block pattern built once per structure and factorised
+// numerically only.
+//
+// The pattern is ordered by AMD on the pose (block) graph, which is 9x (SE(2))
+// to 36x (SE(3)) smaller than the scalar pattern, and assembled already
+// permuted in upper-triangular form, so Eigen's simplicial Cholesky
+// factorises it in place (natural ordering, no copy). For the windows of an
+// incremental pose graph (hundreds of poses, a few MFlop) this beat CHOLMOD's
+// supernodal factorisation, whose per-call overhead dominated there.
 //
 // A solve can be restricted to a window: poses with id >= first_variable are
 // variables; older poses are held fixed and only factors touching a variable
@@ -17,7 +24,7 @@
 #include <memory>
 #include <vector>
 
-#include <Eigen/CholmodSupport>
+#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <ceres/cost_function.h>
 #include <ceres/manifold.h>
@@ -81,6 +88,7 @@ class SparsePoseGraphSolver {
     max_radius_ = max_radius;
   }
   double trustRegionRadius() const { return radius_; }
+  void setTrustRegionRadius(double radius) { radius_ = radius; }
 
   // Robust cost over all factors (0.5 * sum rho).
   double totalCost() const;
@@ -95,13 +103,17 @@ class SparsePoseGraphSolver {
   // Where a window factor's blocks live in the sparse matrix.
   struct FactorSlot {
     int factor;
-    int ia, ib;               // variable block index or -1 (fixed)
+    int ia, ib;               // block row in the permuted Hessian, or -1 (fixed)
     long base_aa, stride_aa;  // (ia, ia)
     long base_bb, stride_bb;  // (ib, ib)
-    long base_ab, stride_ab;  // (max, min) when both are variables
+    long base_ab, stride_ab;  // (min, max) when both are variables
   };
 
   void buildStructure(int first_variable);
+  // Assembles the normal equations at the current estimate (tangent size D)
+  // and returns the robust cost of the window.
+  template <int D>
+  double linearize();
   bool takeStep(int first, const Eigen::VectorXd& delta, double cost, IterationResult* result);
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
@@ -120,10 +132,10 @@ class SparsePoseGraphSolver {
   // Cached structure (rebuilt when the window or the graph changes).
   int structure_first_ = -1, structure_poses_ = -1, structure_factors_ = -1;
   std::vector<FactorSlot> slots_;
-  std::vector<long> diagonal_offsets_;
+  std::vector<int> position_;  // variable -> block row of the permuted Hessian
   Eigen::SparseMatrix<double> hessian_;
   Eigen::VectorXd gradient_;
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Lower> cholesky_;
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> cholesky_;
   std::vector<PoseBlock> saved_;
   bool trust_region_ = true;
   double radius_ = 1.0;
