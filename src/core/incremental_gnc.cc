@@ -1,5 +1,7 @@
 #include "agnc_pgo/core/incremental_gnc.h"
 
+#include "agnc_pgo/core/shape_function.h"
+
 #include <algorithm>
 #include <limits>
 #include <stdexcept>
@@ -90,6 +92,25 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
       loop->inlier = schedule_.isInlier(schedule_.distanceOf(loop->distance));
       break;
   }
+  setDormant(loop, loop->override_mode == LoopOverride::kAuto &&
+                       options_.schedule != ScheduleKind::kNone && !loop->graduation.graduating &&
+                       loop->graduation.mu >= 1.0 && loop->weight < options_.dormant_weight);
+}
+
+void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
+  loop->dormant = dormant;
+  solver_.setDormant(loop->factor, dormant);
+}
+
+bool IncrementalGnc::staysDormant(const LoopClosure& loop) const {
+  if (!loop.dormant) return false;
+  // A restart that begins at mu = 1 would graduate it at the weight it has
+  // now; if that is still negligible, graduating it changes nothing.
+  const GraduationState& g = loop.graduation;
+  const bool restarts_at_one = options_.schedule == ScheduleKind::kRisam
+                                   ? g.mu_init >= 1.0
+                                   : g.init_step >= ShapeFunction::kStepsToOne;
+  return restarts_at_one && solver_.weight(loop.factor) < options_.dormant_weight;
 }
 
 void IncrementalGnc::classifyAll() {
@@ -138,6 +159,7 @@ int IncrementalGnc::settle(int first, int max_iterations, double last_step, Upda
     if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
     last_step = r.mean_step;
     stats->max_mean_step = std::max(stats->max_mean_step, r.mean_step);
+    stats->total_step += r.mean_step * (numPoses() - first);
   }
   stats->converged = last_step < options_.convergence_step;
   stats->iterations += done;
@@ -159,12 +181,17 @@ UpdateStats IncrementalGnc::update() {
     oldest = std::min({oldest, loops_[index].edge.from, loops_[index].edge.to});
 
   // Select what graduates: the new loop closures, then the reset policy.
-  std::vector<int> graduating;
+  std::vector<int> graduating, still_dormant;
   std::vector<char> selected(loops_.size(), 0);
   auto select = [&](int index) {
     LoopClosure& loop = loops_[index];
     if (selected[index] || loop.override_mode != LoopOverride::kAuto) return;
     selected[index] = 1;
+    if (staysDormant(loop)) {
+      still_dormant.push_back(index);
+      return;
+    }
+    setDormant(&loop, false);
     schedule_.start(&loop.graduation);
     if (loop.graduation.graduating) graduating.push_back(index);
   };
@@ -210,12 +237,14 @@ UpdateStats IncrementalGnc::update() {
     IterationResult r = solver_.iterate(first);
     ++stats.iterations;
     stats.factorizations += r.factorizations;
+    if (r.accepted) stats.total_step += r.mean_step * (numPoses() - first);
     for (int extra = 1; extra < options_.iterations_per_step && r.accepted &&
                         r.mean_step >= options_.convergence_step;
          ++extra) {
       r = solver_.iterate(first);
       ++stats.iterations;
       stats.factorizations += r.factorizations;
+      if (r.accepted) stats.total_step += r.mean_step * (numPoses() - first);
     }
     ++stats.gnc_steps;
     if (r.accepted) {
@@ -236,9 +265,11 @@ UpdateStats IncrementalGnc::update() {
   settle(first, max_settle, last_step, &stats);
   // The window held older poses fixed. If the update moved the estimate, let
   // the whole graph follow (the correction belongs to every pose, not only to
-  // those after the loop closure's oldest endpoint).
+  // those after the loop closure's oldest endpoint). "Moved" is judged as a
+  // whole-graph solve would be: the mean step over all poses, so a small
+  // window that shifted a little does not cost full-graph iterations.
   if (first > 0 && options_.global_refinement &&
-      stats.max_mean_step >= options_.convergence_step) {
+      stats.total_step / numPoses() >= options_.convergence_step) {
     settle(0, max_settle, std::numeric_limits<double>::infinity(), &stats);
   }
 
@@ -247,6 +278,8 @@ UpdateStats IncrementalGnc::update() {
     refresh(&loop);
     if (stats.converged) schedule_.adaptInitial(&loop.graduation, schedule_.distanceOf(loop.distance));
   }
+  // Skipped as dormant: did the estimate move towards one of them?
+  for (int index : still_dormant) refresh(&loops_[index]);
   // Not graduating but changed: schedule none, or an override.
   for (int index : pending_) refresh(&loops_[index]);
   for (int index : needs_restart_) refresh(&loops_[index]);

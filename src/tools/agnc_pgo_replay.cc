@@ -33,7 +33,8 @@ const char* kUsage =
     "                       [--distance reference|squared] [--reset none|window|all]\n"
     "                       [--full-window] [--no-global-refinement] [--settle N] [--iterations-per-step N]\n"
     "                       [--no-trust-region] [--trust-region-radius R] [--max-trust-region-radius R]\n"
-    "                       [--carry-trust-region] [--no-arrival-accept] [--reference-alpha]\n";
+    "                       [--carry-trust-region] [--no-arrival-accept] [--dormant-weight W]\n"
+    "                       [--reference-alpha]\n";
 
 struct Arguments {
   std::string input, ground_truth, output;
@@ -78,6 +79,7 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--reference-alpha") a.gnc.reference_alpha_direction = true;
     else if (flag == "--carry-trust-region") a.gnc.restart_trust_region = false;
     else if (flag == "--no-arrival-accept") a.gnc.accept_consistent_on_arrival = false;
+    else if (flag == "--dormant-weight") a.gnc.dormant_weight = parseNumber(flag, value());
     else if (flag == "--help" || flag == "-h") {
       std::cout << kUsage;
       std::exit(0);

@@ -32,6 +32,7 @@ struct LoopClosure {
   double distance = 0.0;      // last whitened residual norm r
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (distance < q(0.95) under the convention)
+  bool dormant = false;       // out of the linear system (see GncOptions::dormant_weight)
   LoopOverride override_mode = LoopOverride::kAuto;
 };
 
@@ -43,6 +44,7 @@ struct UpdateStats {
   int first_variable = 0;  // oldest pose that was free in this update
   bool converged = false;  // mean step per pose below options.convergence_step at the end
   double max_mean_step = 0.0;  // largest mean tangent step per free pose of any iteration
+  double total_step = 0.0;     // sum of the tangent step norms of every pose over all iterations
 };
 
 class IncrementalGnc {
@@ -97,6 +99,8 @@ class IncrementalGnc {
   void validateEdge(const Edge& edge, bool allow_new_pose) const;
   void refresh(LoopClosure* loop);
   void applyOverride(LoopClosure* loop);
+  void setDormant(LoopClosure* loop, bool dormant);
+  bool staysDormant(const LoopClosure& loop) const;
   void acceptConsistent(const std::vector<int>& graduating);
   int settle(int first_variable, int max_iterations, double last_step, UpdateStats* stats);
 

@@ -11,9 +11,9 @@
 // The pattern is ordered by AMD on the pose (block) graph, which is 9x (SE(2))
 // to 36x (SE(3)) smaller than the scalar pattern, and assembled already
 // permuted in upper-triangular form, so Eigen's simplicial Cholesky
-// factorises it in place (natural ordering, no copy). For the windows of an
-// incremental pose graph (hundreds of poses, a few MFlop) this beat CHOLMOD's
-// supernodal factorisation, whose per-call overhead dominated there.
+// factorises it in place (natural ordering, no copy). For SE(2) windows this
+// beat CHOLMOD's supernodal factorisation, whose per-call overhead dominated;
+// SE(3) systems go to CHOLMOD (supernodal, its own AMD ordering).
 //
 // A solve can be restricted to a window: poses with id >= first_variable are
 // variables; older poses are held fixed and only factors touching a variable
@@ -24,6 +24,7 @@
 #include <memory>
 #include <vector>
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <ceres/cost_function.h>
@@ -68,7 +69,20 @@ class SparsePoseGraphSolver {
 
   void setMu(int factor, double mu) { factors_[factor].loss.setMu(mu); }
   double mu(int factor) const { return factors_[factor].loss.mu(); }
-  void setMode(int factor, FactorMode mode) { factors_[factor].mode = mode; }
+  void setMode(int factor, FactorMode mode) {
+    if ((factors_[factor].mode == FactorMode::kDisabled) != (mode == FactorMode::kDisabled))
+      ++structure_version_;
+    factors_[factor].mode = mode;
+  }
+  // A dormant factor keeps its mode and mu but leaves the linear system (and
+  // the window cost) until woken: a rejected loop closure whose kernel weight
+  // is negligible would otherwise add fill-in for nothing -- a random
+  // long-range outlier couples two distant parts of the graph.
+  void setDormant(int factor, bool dormant) {
+    if (factors_[factor].dormant != dormant) ++structure_version_;
+    factors_[factor].dormant = dormant;
+  }
+  bool dormant(int factor) const { return factors_[factor].dormant; }
   FactorMode mode(int factor) const { return factors_[factor].mode; }
   // The whitened residual norm r = |S e| at the current estimate.
   double whitenedNorm(int factor) const;
@@ -99,6 +113,7 @@ class SparsePoseGraphSolver {
     std::unique_ptr<ceres::CostFunction> cost;
     SigLoss loss;
     FactorMode mode;
+    bool dormant = false;
   };
   // Where a window factor's blocks live in the sparse matrix.
   struct FactorSlot {
@@ -131,11 +146,17 @@ class SparsePoseGraphSolver {
 
   // Cached structure (rebuilt when the window or the graph changes).
   int structure_first_ = -1, structure_poses_ = -1, structure_factors_ = -1;
+  long structure_version_ = 0, built_version_ = -1;  // bumped when a factor leaves/joins
   std::vector<FactorSlot> slots_;
   std::vector<int> position_;  // variable -> block row of the permuted Hessian
   Eigen::SparseMatrix<double> hessian_;
   Eigen::VectorXd gradient_;
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> cholesky_;
+  // SE(2): Eigen's simplicial LLT on the block-AMD order (no per-call
+  // overhead; on M3500 it beat CHOLMOD's supernodal LLT up to the full graph).
+  // SE(3): CHOLMOD's supernodal LLT, whose dense kernels win on 6x6 blocks.
+  bool supernodal_ = false;
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> simplicial_;
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> supernodal_cholesky_;
   std::vector<PoseBlock> saved_;
   bool trust_region_ = true;
   double radius_ = 1.0;
