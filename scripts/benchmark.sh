@@ -12,7 +12,8 @@ agnc_install_dependencies
 agnc_build
 
 # Recorded in doc/benchmark.md as the command that reproduces the run.
-AGNC_BENCHMARK_COMMAND="scripts/benchmark.sh$(printf ' %q' "$@")"
+AGNC_BENCHMARK_COMMAND="scripts/benchmark.sh"
+if [ $# -gt 0 ]; then AGNC_BENCHMARK_COMMAND+="$(printf ' %q' "$@")"; fi
 export AGNC_BENCHMARK_COMMAND
 # The tool just built (a --tool among the arguments overrides it).
 exec /usr/bin/python3 "$AGNC_ROOT/scripts/benchmark.py" --tool "$AGNC_BUILD/devel/lib/agnc_pgo/agnc_pgo_replay" "$@"
