@@ -157,7 +157,8 @@ int IncrementalGnc::settle(int first, int max_iterations, double last_step, Upda
     ++done;
     stats->factorizations += r.factorizations;
     if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
-    last_step = r.mean_step;
+    // A step the trust region cut short says nothing about convergence.
+    last_step = r.truncated ? std::numeric_limits<double>::infinity() : r.mean_step;
     stats->max_mean_step = std::max(stats->max_mean_step, r.mean_step);
     stats->total_step += r.mean_step * (numPoses() - first);
   }
@@ -248,11 +249,12 @@ UpdateStats IncrementalGnc::update() {
     }
     ++stats.gnc_steps;
     if (r.accepted) {
-      last_step = r.mean_step;
+      last_step = r.truncated ? std::numeric_limits<double>::infinity() : r.mean_step;
       stats.max_mean_step = std::max(stats.max_mean_step, r.mean_step);
     }
     for (int index : graduating) schedule_.finishStep(&loops_[index].graduation);
-    if (options_.early_accept_consistent && r.accepted && r.mean_step < options_.convergence_step)
+    if (options_.early_accept_consistent && r.accepted && !r.truncated &&
+        r.mean_step < options_.convergence_step)
       acceptConsistent(graduating);
     graduating.erase(std::remove_if(graduating.begin(), graduating.end(),
                                     [this](int i) { return !loops_[i].graduation.graduating; }),
@@ -268,9 +270,14 @@ UpdateStats IncrementalGnc::update() {
   // those after the loop closure's oldest endpoint). "Moved" is judged as a
   // whole-graph solve would be: the mean step over all poses, so a small
   // window that shifted a little does not cost full-graph iterations.
+  // Small corrections add up across updates: the refinement runs once those
+  // since the last one amount to that mean step.
+  unrefined_step_ += stats.total_step;
+  if (first == 0) unrefined_step_ = 0.0;
   if (first > 0 && options_.global_refinement &&
-      stats.total_step / numPoses() >= options_.convergence_step) {
+      unrefined_step_ / numPoses() >= options_.convergence_step) {
     settle(0, max_settle, std::numeric_limits<double>::infinity(), &stats);
+    unrefined_step_ = 0.0;
   }
 
   for (int index : touched) {

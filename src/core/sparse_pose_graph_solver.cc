@@ -287,9 +287,10 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
     return result;
   }
 
-  // Powell's dogleg inside a trust region that persists across iterations
-  // and updates (as iSAM2's Dogleg in riSAM): a single GNC step at a small mu
-  // cannot fold the map towards a new outlier before graduation rejects it.
+  // Powell's dogleg inside a trust region (as iSAM2's Dogleg in riSAM): a
+  // single GNC step at a small mu cannot fold the map towards a new outlier
+  // before graduation rejects it. The radius is computed before the step is
+  // taken, so `truncated` says whether this step was the full GN step.
   const Eigen::VectorXd hg = hessian_.selfadjointView<Eigen::Upper>() * gradient_;
   const double g2 = gradient_.squaredNorm();
   const double ghg = gradient_.dot(hg);
@@ -314,6 +315,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
         -(gradient_.dot(step) + 0.5 * step.dot(hessian_.selfadjointView<Eigen::Upper>() * step));
     const double step_norm = step.norm();
     const bool accepted = takeStep(first, step, cost, &result);
+    result.truncated = !(gn_norm <= radius_);
     const double actual = cost - result.cost_after;
     // Near convergence both decreases are round-off; their ratio says nothing
     // about the model, so the radius is left alone there.

@@ -112,6 +112,7 @@ class IncrementalGnc {
   std::vector<LoopClosure> loops_;
   std::vector<int> pending_;       // loop indices queued for the next update
   std::vector<int> needs_restart_; // loop indices whose override changed
+  double unrefined_step_ = 0.0;  // window steps (summed norms) since the last whole-graph refinement
   long total_iterations_ = 0;
   long total_gnc_steps_ = 0;
 };

@@ -45,6 +45,7 @@ struct IterationResult {
   double mean_step = 0;    // mean tangent-step norm per variable pose
   int factorizations = 0;  // numeric factorisations (1 unless damping was needed)
   bool accepted = false;   // false: no step reduced the cost; the estimate is unchanged
+  bool truncated = false;  // the step was cut short by the trust region (not a full Gauss-Newton step)
 };
 
 class SparsePoseGraphSolver {
