@@ -1,11 +1,11 @@
 #include "agnc_pgo/core/incremental_gnc.h"
 
-#include "agnc_pgo/core/shape_function.h"
-
 #include <algorithm>
 #include <limits>
 #include <stdexcept>
 #include <string>
+
+#include "agnc_pgo/core/shape_function.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -14,6 +14,12 @@ namespace {
 // Plain least squares needs more iterations than a warm-started GNC step:
 // without graduation, a loop closure's whole correction lands at once.
 constexpr int kMinPlainIterations = 10;
+
+// The step size that decides convergence: a step the trust region cut short
+// says nothing about it.
+double convergenceStep(const IterationResult& r) {
+  return r.truncated ? std::numeric_limits<double>::infinity() : r.mean_step;
+}
 
 bool finiteEdge(const Edge& e) {
   return e.measurement.translation.allFinite() && e.measurement.rotation.coeffs().allFinite() &&
@@ -144,26 +150,36 @@ void IncrementalGnc::acceptConsistent(const std::vector<int>& graduating) {
     if (!loop.graduation.graduating) continue;
     const double m = schedule_.distanceOf(solver_.whitenedNorm(loop.factor));
     if (m >= schedule_.thresholds().q25) continue;
-    loop.graduation.mu = 1.0;
-    loop.graduation.graduating = false;
-    solver_.setMu(loop.factor, 1.0);
+    acceptAsInlier(&loop);
   }
+}
+
+void IncrementalGnc::acceptAsInlier(LoopClosure* loop) {
+  loop->graduation.mu = 1.0;
+  loop->graduation.graduating = false;
+  solver_.setMu(loop->factor, 1.0);
+}
+
+IterationResult IncrementalGnc::iterateOnce(int first, UpdateStats* stats) {
+  const IterationResult r = solver_.iterate(first);
+  ++stats->iterations;
+  stats->factorizations += r.factorizations;
+  if (r.accepted) {
+    stats->max_mean_step = std::max(stats->max_mean_step, r.mean_step);
+    stats->total_step += r.mean_step * (numPoses() - first);
+  }
+  return r;
 }
 
 int IncrementalGnc::settle(int first, int max_iterations, double last_step, UpdateStats* stats) {
   int done = 0;
   while (done < max_iterations && last_step >= options_.convergence_step) {
-    const IterationResult r = solver_.iterate(first);
+    const IterationResult r = iterateOnce(first, stats);
     ++done;
-    stats->factorizations += r.factorizations;
     if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
-    // A step the trust region cut short says nothing about convergence.
-    last_step = r.truncated ? std::numeric_limits<double>::infinity() : r.mean_step;
-    stats->max_mean_step = std::max(stats->max_mean_step, r.mean_step);
-    stats->total_step += r.mean_step * (numPoses() - first);
+    last_step = convergenceStep(r);
   }
   stats->converged = last_step < options_.convergence_step;
-  stats->iterations += done;
   return done;
 }
 
@@ -205,9 +221,7 @@ UpdateStats IncrementalGnc::update() {
         schedule_.distanceOf(solver_.whitenedNorm(loop.factor)) < schedule_.thresholds().q25) {
       selected[index] = 1;
       schedule_.start(&loop.graduation);
-      loop.graduation.mu = 1.0;
-      loop.graduation.graduating = false;
-      solver_.setMu(loop.factor, 1.0);
+      acceptAsInlier(&loop);
       touched.push_back(index);
       continue;
     }
@@ -235,23 +249,13 @@ UpdateStats IncrementalGnc::update() {
       schedule_.advance(&loop.graduation, schedule_.distanceOf(r));
       solver_.setMu(loop.factor, loop.graduation.mu);
     }
-    IterationResult r = solver_.iterate(first);
-    ++stats.iterations;
-    stats.factorizations += r.factorizations;
-    if (r.accepted) stats.total_step += r.mean_step * (numPoses() - first);
+    IterationResult r = iterateOnce(first, &stats);
     for (int extra = 1; extra < options_.iterations_per_step && r.accepted &&
                         r.mean_step >= options_.convergence_step;
-         ++extra) {
-      r = solver_.iterate(first);
-      ++stats.iterations;
-      stats.factorizations += r.factorizations;
-      if (r.accepted) stats.total_step += r.mean_step * (numPoses() - first);
-    }
+         ++extra)
+      r = iterateOnce(first, &stats);
     ++stats.gnc_steps;
-    if (r.accepted) {
-      last_step = r.truncated ? std::numeric_limits<double>::infinity() : r.mean_step;
-      stats.max_mean_step = std::max(stats.max_mean_step, r.mean_step);
-    }
+    if (r.accepted) last_step = convergenceStep(r);
     for (int index : graduating) schedule_.finishStep(&loops_[index].graduation);
     if (options_.early_accept_consistent && r.accepted && !r.truncated &&
         r.mean_step < options_.convergence_step)
@@ -268,10 +272,10 @@ UpdateStats IncrementalGnc::update() {
   // The window held older poses fixed. If the update moved the estimate, let
   // the whole graph follow (the correction belongs to every pose, not only to
   // those after the loop closure's oldest endpoint). "Moved" is judged as a
-  // whole-graph solve would be: the mean step over all poses, so a small
-  // window that shifted a little does not cost full-graph iterations.
-  // Small corrections add up across updates: the refinement runs once those
-  // since the last one amount to that mean step.
+  // whole-graph solve would be -- the mean step over all poses -- and small
+  // corrections add up across updates: the refinement runs once those since
+  // the last one amount to convergence_step, so a small window that shifted a
+  // little does not cost full-graph iterations every time.
   unrefined_step_ += stats.total_step;
   if (first == 0) unrefined_step_ = 0.0;
   if (first > 0 && options_.global_refinement &&

@@ -136,15 +136,21 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   }
 
   // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
-  // block row of variable v in the permuted Hessian.
-  Eigen::SparseMatrix<double> lower(nv, nv);
-  lower.setFromTriplets(pattern.begin(), pattern.end());
-  Eigen::SparseMatrix<double> blocks;
-  blocks = lower.selfadjointView<Eigen::Lower>();
-  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
-  Eigen::AMDOrdering<int>()(blocks, order);
+  // block row of variable v in the permuted Hessian. CHOLMOD (SE(3)) orders
+  // the scalar pattern itself, so there the variables keep their order.
+  supernodal_ = d == 6;
   position_.resize(nv);
-  for (int k = 0; k < nv; ++k) position_[order.indices()[k]] = k;
+  if (supernodal_) {
+    for (int v = 0; v < nv; ++v) position_[v] = v;
+  } else {
+    Eigen::SparseMatrix<double> lower(nv, nv);
+    lower.setFromTriplets(pattern.begin(), pattern.end());
+    Eigen::SparseMatrix<double> blocks;
+    blocks = lower.selfadjointView<Eigen::Lower>();
+    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
+    Eigen::AMDOrdering<int>()(blocks, order);
+    for (int k = 0; k < nv; ++k) position_[order.indices()[k]] = k;
+  }
   for (FactorSlot& s : slots_) {
     if (s.ia >= 0) s.ia = position_[s.ia];
     if (s.ib >= 0) s.ib = position_[s.ib];
@@ -193,7 +199,6 @@ void SparsePoseGraphSolver::buildStructure(int first) {
       locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
   }
   gradient_.resize(n);
-  supernodal_ = d == 6;
   if (supernodal_) supernodal_cholesky_.analyzePattern(hessian_);
   else simplicial_.analyzePattern(hessian_);
 

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cstdint>
 #include <memory>
 #include <string>
 
@@ -42,15 +43,21 @@ std::unique_ptr<IncrementalGnc> squareEngine(const GncOptions& options) {
 }
 
 // Outliers are placed against the outlier-free optimum (the geometry the
-// engine can know), as the replay tool does.
-ReplayResult replayWithOutliers(const std::string& name, double percent, const GncOptions& gnc) {
-  PoseGraph graph = readG2o(dataset(name));
-  PoseGraph reference = graph;
-  optimizeBatch(&reference);
+// engine can know), as the replay tool does; `reference` receives it.
+PoseGraph withOutliers(const PoseGraph& graph, const std::string& name, double percent,
+                       std::uint64_t seed, PoseGraph* reference = nullptr) {
+  PoseGraph optimum = graph;
+  optimizeBatch(&optimum);
   OutlierOptions outliers;
   outliers.percent = percent;
-  outliers.seed = 3;
-  const IncrementalLog log = logFromGraph(injectOutliers(graph, reference, name, outliers), name);
+  outliers.seed = seed;
+  PoseGraph out = injectOutliers(graph, optimum, name, outliers);
+  if (reference != nullptr) *reference = std::move(optimum);
+  return out;
+}
+
+ReplayResult replayWithOutliers(const std::string& name, double percent, const GncOptions& gnc) {
+  const IncrementalLog log = logFromGraph(withOutliers(readG2o(dataset(name)), name, percent, 3), name);
   ReplayOptions options;
   options.gnc = gnc;
   return replay(log, options);
@@ -207,13 +214,7 @@ static PoseGraph firstPoses(const PoseGraph& graph, int n) {
 // behind): every loop closure graduates in one update. The ring's loop
 // closures need a large correction; the trust region must let it through.
 TEST(IncrementalGncEndToEnd, RingLoopClosuresBatchedIntoOneUpdate) {
-  PoseGraph graph = readG2o(dataset("ring.g2o"));
-  PoseGraph reference = graph;
-  optimizeBatch(&reference);
-  OutlierOptions outliers;
-  outliers.percent = 10.0;
-  outliers.seed = 2;
-  graph = injectOutliers(graph, reference, "ring", outliers);
+  const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
   IncrementalGnc engine(2, GncOptions());
   engine.addFirstPose(graph.poses[0], 1e6 * Eigen::MatrixXd::Identity(3, 3));
   std::vector<Edge> odometry;
@@ -239,16 +240,10 @@ TEST(IncrementalGncEndToEnd, RingLoopClosuresBatchedIntoOneUpdate) {
 // (a trust region carried over from earlier updates let it: ATE 10.7 m on
 // these 1200 poses of M3500 at 30 %, against 0.79 m without outliers).
 TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
-  const PoseGraph graph = firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200);
-  PoseGraph reference = graph;
-  optimizeBatch(&reference);
-  OutlierOptions outliers;
-  outliers.percent = 30.0;
-  outliers.seed = 1;
-  const IncrementalLog log =
-      logFromGraph(injectOutliers(graph, reference, "manhattanOlson3500", outliers), "m1200");
-  ReplayOptions options;
-  const ReplayResult result = replay(log, options);
+  PoseGraph reference;
+  const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
+                                       "manhattanOlson3500", 30.0, 1, &reference);
+  const ReplayResult result = replay(logFromGraph(graph, "m1200"), ReplayOptions());
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
   EXPECT_GE(result.counts.recall(), 0.99);
   EXPECT_LT(absoluteTrajectoryError(result.estimate, reference.poses, 2), 0.1);
@@ -258,14 +253,8 @@ TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
 // and are rejected at first; their small remaining pull must still close the
 // ring (a dormant threshold of 1e-6 cut it off: recall 0).
 TEST(IncrementalGncEndToEnd, RingClosesWhenReplayedEntryByEntry) {
-  PoseGraph graph = readG2o(dataset("ring.g2o"));
-  PoseGraph reference = graph;
-  optimizeBatch(&reference);
-  OutlierOptions outliers;
-  outliers.percent = 10.0;
-  outliers.seed = 2;
-  const IncrementalLog log = logFromGraph(injectOutliers(graph, reference, "ring", outliers), "ring");
-  const ReplayResult result = replay(log, ReplayOptions());
+  const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
+  const ReplayResult result = replay(logFromGraph(graph, "ring"), ReplayOptions());
   EXPECT_EQ(result.counts.true_positive, 26);
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
   EXPECT_DOUBLE_EQ(result.counts.recall(), 1.0);

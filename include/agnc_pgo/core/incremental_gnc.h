@@ -102,6 +102,9 @@ class IncrementalGnc {
   void setDormant(LoopClosure* loop, bool dormant);
   bool staysDormant(const LoopClosure& loop) const;
   void acceptConsistent(const std::vector<int>& graduating);
+  void acceptAsInlier(LoopClosure* loop);  // mu = 1, graduation over
+  // One solver iteration, counted into stats (iterations, steps).
+  IterationResult iterateOnce(int first, UpdateStats* stats);
   int settle(int first_variable, int max_iterations, double last_step, UpdateStats* stats);
 
   int dimension_;
