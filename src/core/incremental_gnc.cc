@@ -280,7 +280,9 @@ UpdateStats IncrementalGnc::update() {
   if (first == 0) unrefined_step_ = 0.0;
   if (first > 0 && options_.global_refinement &&
       unrefined_step_ / numPoses() >= options_.convergence_step) {
+    const int before = stats.iterations;
     settle(0, max_settle, std::numeric_limits<double>::infinity(), &stats);
+    stats.refinement_iterations = stats.iterations - before;
     unrefined_step_ = 0.0;
   }
 

@@ -41,6 +41,7 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
       ++histogram[stats.iterations];
       result.loop_update_ms.push_back(seconds * 1e3);
       result.loop_update_poses.push_back(engine.numPoses());
+      result.loop_update_stats.push_back(stats);
     }
     free_pose_solves += static_cast<double>(stats.iterations) * (engine.numPoses() - stats.first_variable);
     if (options.progress) options.progress(k + 1, total);

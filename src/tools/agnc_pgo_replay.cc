@@ -226,9 +226,13 @@ int main(int argc, char** argv) {
         csv << l.edge.from << ',' << l.edge.to << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << l.mu << ','
             << l.weight << ',' << l.distance << ',' << (l.inlier ? 1 : 0) << '\n';
       std::ofstream latency(dir / "latency.csv");
-      latency << "poses,update_ms\n";
-      for (size_t i = 0; i < result.loop_update_ms.size(); ++i)
-        latency << result.loop_update_poses[i] << ',' << result.loop_update_ms[i] << '\n';
+      latency << "poses,update_ms,free_poses,iterations,refinement_iterations,gnc_steps,graduated\n";
+      for (size_t i = 0; i < result.loop_update_ms.size(); ++i) {
+        const UpdateStats& s = result.loop_update_stats[i];
+        latency << result.loop_update_poses[i] << ',' << result.loop_update_ms[i] << ','
+                << result.loop_update_poses[i] - s.first_variable << ',' << s.iterations << ','
+                << s.refinement_iterations << ',' << s.gnc_steps << ',' << s.graduated << '\n';
+      }
     }
 
     if (!args.quiet) {

@@ -39,6 +39,7 @@ struct LoopClosure {
 struct UpdateStats {
   int gnc_steps = 0;       // steps with at least one graduating loop closure
   int iterations = 0;      // Gauss-Newton iterations (= solves)
+  int refinement_iterations = 0;  // of which on the whole graph after the window
   int factorizations = 0;  // numeric factorisations (>= iterations when damping kicked in)
   int graduated = 0;       // loop closures that graduated (new + reset)
   int first_variable = 0;  // oldest pose that was free in this update

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "agnc_pgo/core/gnc_options.h"
+#include "agnc_pgo/core/incremental_gnc.h"
 #include "agnc_pgo/core/incremental_log.h"
 #include "agnc_pgo/core/metrics.h"
 
@@ -37,6 +38,7 @@ struct ReplayResult {
   std::vector<int> solves_per_update_histogram;  // [k] = updates that took k solves
   std::vector<double> loop_update_ms;    // one per update that had loop closures
   std::vector<int> loop_update_poses;    // graph size at each of those updates
+  std::vector<UpdateStats> loop_update_stats;  // what each of those updates did
   ClassificationCounts counts;
 };
 
