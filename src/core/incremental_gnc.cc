@@ -1,6 +1,7 @@
 #include "agnc_pgo/core/incremental_gnc.h"
 
 #include <algorithm>
+#include <cmath>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -19,6 +20,13 @@ constexpr int kMinPlainIterations = 10;
 // says nothing about it.
 double convergenceStep(const IterationResult& r) {
   return r.truncated ? std::numeric_limits<double>::infinity() : r.mean_step;
+}
+
+// How far a pose moved: the norm of (translation, rotation angle), a stand-in
+// for the tangent-space norm of the step that took it there.
+double displacement(const Pose& before, const Pose& after) {
+  const Pose d = before.inverse() * after;
+  return std::hypot(d.translation.norm(), d.rotation.angularDistance(Eigen::Quaterniond::Identity()));
 }
 
 bool finiteEdge(const Edge& e) {
@@ -190,12 +198,23 @@ UpdateStats IncrementalGnc::update() {
   // steps agree with the model (see GncOptions::restart_trust_region).
   if (options_.restart_trust_region) solver_.setTrustRegionRadius(options_.trust_region_radius);
 
-  // The oldest pose a new loop closure (or changed override) touches.
-  int oldest = numPoses();
-  for (int index : pending_)
-    oldest = std::min({oldest, loops_[index].edge.from, loops_[index].edge.to});
-  for (int index : needs_restart_)
-    oldest = std::min({oldest, loops_[index].edge.from, loops_[index].edge.to});
+  // The oldest pose a new loop closure (or changed override) touches, and
+  // the free window: from that pose on, but reaching at most
+  // max_window_poses poses back from each loop closure's newer endpoint (the
+  // older endpoint of a long loop closure is then held fixed with the rest of
+  // the old map, see GncOptions::max_window_poses).
+  int oldest = numPoses(), first = numPoses();
+  auto reach = [&](const Edge& e) {
+    const int older = std::min(e.from, e.to), newer = std::max(e.from, e.to);
+    oldest = std::min(oldest, older);
+    first = std::min(first, options_.max_window_poses > 0
+                                ? std::max(older, newer + 1 - options_.max_window_poses)
+                                : older);
+  };
+  for (int index : pending_) reach(loops_[index].edge);
+  for (int index : needs_restart_) reach(loops_[index].edge);
+  if (!options_.local_window) first = 0;
+  stats.first_variable = first;
 
   // Select what graduates: the new loop closures, then the reset policy.
   std::vector<int> graduating, still_dormant;
@@ -232,13 +251,19 @@ UpdateStats IncrementalGnc::update() {
   if (options_.reset != ResetPolicy::kNone && !all_consistent) {
     for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
       const Edge& e = loops_[index].edge;
-      if (options_.reset == ResetPolicy::kAll || std::max(e.from, e.to) >= oldest) select(index);
+      // A loop closure with both ends held fixed cannot move in this update.
+      if (options_.reset == ResetPolicy::kAll || std::max(e.from, e.to) >= std::max(oldest, first))
+        select(index);
     }
   }
   touched.insert(touched.end(), graduating.begin(), graduating.end());
   stats.graduated = static_cast<int>(graduating.size());
-  const int first = options_.local_window ? oldest : 0;
-  stats.first_variable = first;
+
+  // Where the window starts from: the whole-graph refinement below is
+  // decided on how far the update moved it.
+  Poses window_before;
+  window_before.reserve(numPoses() - first);
+  for (int i = first; i < numPoses(); ++i) window_before.push_back(solver_.pose(i));
 
   // GNC steps: set mu for every graduating loop closure, then one iteration.
   double last_step = std::numeric_limits<double>::infinity();
@@ -271,12 +296,16 @@ UpdateStats IncrementalGnc::update() {
   settle(first, max_settle, last_step, &stats);
   // The window held older poses fixed. If the update moved the estimate, let
   // the whole graph follow (the correction belongs to every pose, not only to
-  // those after the loop closure's oldest endpoint). "Moved" is judged as a
-  // whole-graph solve would be -- the mean step over all poses -- and small
-  // corrections add up across updates: the refinement runs once those since
-  // the last one amount to convergence_step, so a small window that shifted a
-  // little does not cost full-graph iterations every time.
-  unrefined_step_ += stats.total_step;
+  // those in the window). "Moved" is judged as a whole-graph solve would be --
+  // the mean displacement over all poses -- and small corrections add up
+  // across updates: the refinement runs once those since the last one amount
+  // to convergence_step, so a window that shifted a little does not cost
+  // whole-graph iterations every time. The displacement is net: an outlier
+  // that pulled the window at a small mu and was then rejected moved it
+  // there and back, which calls for no refinement.
+  for (int i = first; i < numPoses(); ++i)
+    stats.window_displacement += displacement(window_before[i - first], solver_.pose(i));
+  unrefined_step_ += stats.window_displacement;
   if (first == 0) unrefined_step_ = 0.0;
   if (first > 0 && options_.global_refinement &&
       unrefined_step_ / numPoses() >= options_.convergence_step) {

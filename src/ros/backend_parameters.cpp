@@ -131,6 +131,7 @@ BackendParameters readParameters(const ros::NodeHandle& nh) {
   getDouble(nh, "gnc/convergence_step", &p.gnc.convergence_step);
   get(nh, "gnc/adapt_initial_mu", &p.gnc.adapt_initial_mu, "a bool");
   get(nh, "gnc/local_window", &p.gnc.local_window, "a bool");
+  get(nh, "gnc/max_window_poses", &p.gnc.max_window_poses, "an integer");
   get(nh, "gnc/max_gnc_steps", &p.gnc.max_gnc_steps, "an integer");
   get(nh, "gnc/global_refinement", &p.gnc.global_refinement, "a bool");
   get(nh, "gnc/early_accept_consistent", &p.gnc.early_accept_consistent, "a bool");
@@ -170,6 +171,7 @@ std::string describe(const BackendParameters& p) {
       << "  gnc: schedule " << core::toString(p.gnc.schedule) << ", distance "
       << core::toString(p.gnc.distance) << ", reset " << core::toString(p.gnc.reset) << ", shape_c "
       << p.gnc.shape_c << ", local_window " << (p.gnc.local_window ? "true" : "false")
+      << " (at most " << p.gnc.max_window_poses << " poses, 0: unbounded)"
       << ", global_refinement " << (p.gnc.global_refinement ? "true" : "false")
       << ", trust_region " << (p.gnc.trust_region ? "true" : "false") << " (radius "
       << p.gnc.trust_region_radius << (p.gnc.restart_trust_region ? ", restarted per update" : ", carried over")

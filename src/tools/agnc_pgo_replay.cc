@@ -31,7 +31,7 @@ const char* kUsage =
     "                       [--schedule agnc|agnc-fixed|risam|none] [--ground-truth GT.g2o]\n"
     "                       [--output DIR] [--quiet]\n"
     "                       [--distance reference|squared] [--reset none|window|all]\n"
-    "                       [--full-window] [--no-global-refinement] [--settle N] [--iterations-per-step N]\n"
+    "                       [--full-window] [--max-window POSES] [--no-global-refinement] [--settle N] [--iterations-per-step N]\n"
     "                       [--no-trust-region] [--trust-region-radius R] [--max-trust-region-radius R]\n"
     "                       [--carry-trust-region] [--no-arrival-accept] [--dormant-weight W]\n"
     "                       [--reference-alpha]\n";
@@ -70,6 +70,7 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--distance") a.gnc.distance = parseDistanceConvention(value());
     else if (flag == "--reset") a.gnc.reset = parseResetPolicy(value());
     else if (flag == "--full-window") a.gnc.local_window = false;
+    else if (flag == "--max-window") a.gnc.max_window_poses = static_cast<int>(parseNumber(flag, value()));
     else if (flag == "--settle") a.gnc.max_settle_iterations = static_cast<int>(parseNumber(flag, value()));
     else if (flag == "--no-global-refinement") a.gnc.global_refinement = false;
     else if (flag == "--no-trust-region") a.gnc.trust_region = false;
@@ -191,6 +192,7 @@ int main(int argc, char** argv) {
          << "  \"distance\": \"" << toString(args.gnc.distance) << "\",\n"
          << "  \"reset\": \"" << toString(args.gnc.reset) << "\",\n"
          << "  \"local_window\": " << (args.gnc.local_window ? "true" : "false") << ",\n"
+         << "  \"max_window_poses\": " << args.gnc.max_window_poses << ",\n"
          << "  \"runtime_s\": " << jsonNumber(result.runtime_s) << ",\n"
          << "  \"solves\": " << result.solves << ",\n"
          << "  \"gnc_steps\": " << result.gnc_steps << ",\n"

@@ -125,6 +125,43 @@ TEST(IncrementalGnc, InconsistentLoopClosureStillGraduatesWithTheArrivalCheck) {
   EXPECT_FALSE(engine.loopClosures()[0].inlier);
 }
 
+// A straight corridor of 50 poses, 1 m apart, odometry only.
+std::unique_ptr<IncrementalGnc> corridorEngine(const GncOptions& options) {
+  auto owned = std::make_unique<IncrementalGnc>(2, options);
+  owned->addFirstPose(Pose::fromSE2(0, 0, 0), 1e6 * Eigen::Matrix3d::Identity());
+  for (int i = 0; i < 49; ++i) owned->addOdometry(edge(i, i + 1, Pose::fromSE2(1, 0, 0)));
+  return owned;
+}
+
+TEST(IncrementalGnc, WindowReachesAtMostMaxWindowPosesBackFromTheNewerEndpoint) {
+  GncOptions options;
+  options.max_window_poses = 10;
+  options.global_refinement = false;  // to see what the window alone moved
+  auto owned = corridorEngine(options);
+  IncrementalGnc& engine = *owned;
+  const Poses before = engine.poses();
+  // Pose 49 seen 0.3 m short of where odometry puts it relative to pose 2.
+  engine.addLoopClosure(edge(2, 49, Pose::fromSE2(46.7, 0, 0)));
+  const UpdateStats stats = engine.update();
+  EXPECT_EQ(stats.first_variable, 40);  // 49 + 1 - 10, not the older endpoint 2
+  for (int i = 0; i < 40; ++i)
+    EXPECT_EQ(engine.pose(i).translation, before[i].translation) << "pose " << i << " is held fixed";
+  EXPECT_LT(engine.pose(49).translation.x(), 48.9);  // the window took the correction
+  EXPECT_TRUE(engine.loopClosures()[0].inlier);
+
+  // A loop closure between two old poses: the window ends at its newer one.
+  engine.addLoopClosure(edge(5, 20, Pose::fromSE2(15.1, 0, 0)));
+  EXPECT_EQ(engine.update().first_variable, 11);  // 20 + 1 - 10
+}
+
+TEST(IncrementalGnc, UnboundedWindowStartsAtTheOlderEndpoint) {
+  GncOptions options;
+  options.max_window_poses = 0;
+  auto owned = corridorEngine(options);
+  owned->addLoopClosure(edge(2, 49, Pose::fromSE2(46.7, 0, 0)));
+  EXPECT_EQ(owned->update().first_variable, 2);
+}
+
 TEST(IncrementalGnc, GrossOutlierIsRejectedAndLeavesTheEstimate) {
   auto owned = squareEngine(GncOptions());
   IncrementalGnc& engine = *owned;

@@ -48,6 +48,12 @@ struct GncOptions {
   // Free only the poses from the oldest endpoint of the new loop closures on
   // (older poses held fixed) instead of the whole graph.
   bool local_window = true;
+  // With local_window: free at most the newest max_window_poses poses (0: no
+  // bound). A loop closure to a pose older than that corrects the recent
+  // trajectory against the old map, held fixed; the whole-graph refinement
+  // below then spreads the correction. Bounds the cost of an update however
+  // far back a loop closure reaches.
+  int max_window_poses = 200;
   // With local_window: after an update that moved the estimate, iterate on
   // the whole graph until it settles too.
   bool global_refinement = true;

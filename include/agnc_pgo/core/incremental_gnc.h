@@ -46,6 +46,7 @@ struct UpdateStats {
   bool converged = false;  // mean step per pose below options.convergence_step at the end
   double max_mean_step = 0.0;  // largest mean tangent step per free pose of any iteration
   double total_step = 0.0;     // sum of the tangent step norms of every pose over all iterations
+  double window_displacement = 0.0;  // net: sum over the window's poses of how far each moved
 };
 
 class IncrementalGnc {
@@ -116,7 +117,7 @@ class IncrementalGnc {
   std::vector<LoopClosure> loops_;
   std::vector<int> pending_;       // loop indices queued for the next update
   std::vector<int> needs_restart_; // loop indices whose override changed
-  double unrefined_step_ = 0.0;  // window steps (summed norms) since the last whole-graph refinement
+  double unrefined_step_ = 0.0;  // window displacements since the last whole-graph refinement
   long total_iterations_ = 0;
   long total_gnc_steps_ = 0;
 };
