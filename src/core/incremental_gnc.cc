@@ -106,9 +106,11 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
       loop->inlier = schedule_.isInlier(schedule_.distanceOf(loop->distance));
       break;
   }
-  setDormant(loop, loop->override_mode == LoopOverride::kAuto &&
-                       options_.schedule != ScheduleKind::kNone && !loop->graduation.graduating &&
-                       loop->graduation.mu >= 1.0 && loop->weight < options_.dormant_weight);
+  const bool rejected_at_one = loop->override_mode == LoopOverride::kAuto &&
+                               options_.schedule != ScheduleKind::kNone && !loop->graduation.graduating &&
+                               loop->graduation.mu >= 1.0;
+  setDormant(loop, rejected_at_one && loop->weight < options_.dormant_weight);
+  solver_.setDecoupled(loop->factor, rejected_at_one && loop->weight < options_.decoupled_weight);
 }
 
 void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
@@ -142,6 +144,9 @@ void IncrementalGnc::applyOverride(LoopClosure* loop) {
       break;
   }
   loop->graduation.graduating = false;
+  // Back in the linear system until the next classification says otherwise.
+  setDormant(loop, false);
+  solver_.setDecoupled(loop->factor, false);
 }
 
 void IncrementalGnc::setOverride(int index, LoopOverride mode) {
@@ -228,6 +233,7 @@ UpdateStats IncrementalGnc::update() {
       return;
     }
     setDormant(&loop, false);
+    solver_.setDecoupled(loop.factor, false);
     schedule_.start(&loop.graduation);
     if (loop.graduation.graduating) graduating.push_back(index);
   };

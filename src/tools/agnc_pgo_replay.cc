@@ -34,6 +34,7 @@ const char* kUsage =
     "                       [--full-window] [--max-window POSES] [--no-global-refinement] [--settle N] [--iterations-per-step N]\n"
     "                       [--no-trust-region] [--trust-region-radius R] [--max-trust-region-radius R]\n"
     "                       [--carry-trust-region] [--no-arrival-accept] [--dormant-weight W]\n"
+    "                       [--decoupled-weight W]\n"
     "                       [--reference-alpha]\n";
 
 struct Arguments {
@@ -81,6 +82,7 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--carry-trust-region") a.gnc.restart_trust_region = false;
     else if (flag == "--no-arrival-accept") a.gnc.accept_consistent_on_arrival = false;
     else if (flag == "--dormant-weight") a.gnc.dormant_weight = parseNumber(flag, value());
+    else if (flag == "--decoupled-weight") a.gnc.decoupled_weight = parseNumber(flag, value());
     else if (flag == "--help" || flag == "-h") {
       std::cout << kUsage;
       std::exit(0);

@@ -92,6 +92,11 @@ struct GncOptions {
   // while the drift was still uncorrected is what brings a ring back
   // together (Vertigo ring at 10 %: recall 0 with 1e-6, 1.0 with 1e-8).
   double dormant_weight = 1e-8;
+  // A rejected loop closure whose weight at mu = 1 is below this (but above
+  // dormant_weight) stays in the cost and the gradient -- its pull is kept --
+  // but not in the Hessian's off-diagonal blocks, so it adds no fill-in
+  // (see SparsePoseGraphSolver::setDecoupled). 0: never.
+  double decoupled_weight = 1e-4;
   // Safety bound on GNC steps per update (a loop closure needs at most 6).
   int max_gnc_steps = 30;
 };

@@ -84,6 +84,16 @@ class SparsePoseGraphSolver {
     factors_[factor].dormant = dormant;
   }
   bool dormant(int factor) const { return factors_[factor].dormant; }
+  // A decoupled factor stays in the cost, the gradient and the diagonal
+  // blocks of the Hessian, but its off-diagonal block is left out: for a
+  // rejected loop closure (weight << 1) that block is negligible, yet it is
+  // what couples two distant parts of the graph and multiplies the fill-in.
+  // (Dropping it keeps the Hessian positive semi-definite.)
+  void setDecoupled(int factor, bool decoupled) {
+    if (factors_[factor].decoupled != decoupled) ++structure_version_;
+    factors_[factor].decoupled = decoupled;
+  }
+  bool decoupled(int factor) const { return factors_[factor].decoupled; }
   FactorMode mode(int factor) const { return factors_[factor].mode; }
   // The whitened residual norm r = |S e| at the current estimate.
   double whitenedNorm(int factor) const;
@@ -115,6 +125,7 @@ class SparsePoseGraphSolver {
     SigLoss loss;
     FactorMode mode;
     bool dormant = false;
+    bool decoupled = false;
   };
   // Where a window factor's blocks live in the sparse matrix.
   struct FactorSlot {
@@ -122,7 +133,7 @@ class SparsePoseGraphSolver {
     int ia, ib;               // block row in the permuted Hessian, or -1 (fixed)
     long base_aa, stride_aa;  // (ia, ia)
     long base_bb, stride_bb;  // (ib, ib)
-    long base_ab, stride_ab;  // (min, max) when both are variables
+    long base_ab, stride_ab;  // (min, max) when both are variables and coupled, else base_ab = -1
   };
 
   void buildStructure(int first_variable);
