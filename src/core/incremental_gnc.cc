@@ -109,13 +109,14 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
   const bool rejected_at_one = loop->override_mode == LoopOverride::kAuto &&
                                options_.schedule != ScheduleKind::kNone && !loop->graduation.graduating &&
                                loop->graduation.mu >= 1.0;
-  setDormant(loop, rejected_at_one && loop->weight < options_.dormant_weight);
-  solver_.setDecoupled(loop->factor, rejected_at_one && loop->weight < options_.decoupled_weight);
+  setSparsity(loop, rejected_at_one && loop->weight < options_.dormant_weight,
+              rejected_at_one && loop->weight < options_.decoupled_weight);
 }
 
-void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
+void IncrementalGnc::setSparsity(LoopClosure* loop, bool dormant, bool decoupled) {
   loop->dormant = dormant;
   solver_.setDormant(loop->factor, dormant);
+  solver_.setDecoupled(loop->factor, decoupled);
 }
 
 bool IncrementalGnc::staysDormant(const LoopClosure& loop) const {
@@ -145,8 +146,7 @@ void IncrementalGnc::applyOverride(LoopClosure* loop) {
   }
   loop->graduation.graduating = false;
   // Back in the linear system until the next classification says otherwise.
-  setDormant(loop, false);
-  solver_.setDecoupled(loop->factor, false);
+  setSparsity(loop, false, false);
 }
 
 void IncrementalGnc::setOverride(int index, LoopOverride mode) {
@@ -179,7 +179,6 @@ IterationResult IncrementalGnc::iterateOnce(int first, UpdateStats* stats) {
   stats->factorizations += r.factorizations;
   if (r.accepted) {
     stats->max_mean_step = std::max(stats->max_mean_step, r.mean_step);
-    stats->total_step += r.mean_step * (numPoses() - first);
   }
   return r;
 }
@@ -232,8 +231,7 @@ UpdateStats IncrementalGnc::update() {
       still_dormant.push_back(index);
       return;
     }
-    setDormant(&loop, false);
-    solver_.setDecoupled(loop.factor, false);
+    setSparsity(&loop, false, false);
     schedule_.start(&loop.graduation);
     if (loop.graduation.graduating) graduating.push_back(index);
   };
@@ -267,9 +265,12 @@ UpdateStats IncrementalGnc::update() {
 
   // Where the window starts from: the whole-graph refinement below is
   // decided on how far the update moved it.
+  const bool may_refine = first > 0 && options_.global_refinement;
   Poses window_before;
-  window_before.reserve(numPoses() - first);
-  for (int i = first; i < numPoses(); ++i) window_before.push_back(solver_.pose(i));
+  if (may_refine) {
+    window_before.reserve(numPoses() - first);
+    for (int i = first; i < numPoses(); ++i) window_before.push_back(solver_.pose(i));
+  }
 
   // GNC steps: set mu for every graduating loop closure, then one iteration.
   double last_step = std::numeric_limits<double>::infinity();
@@ -309,12 +310,11 @@ UpdateStats IncrementalGnc::update() {
   // whole-graph iterations every time. The displacement is net: an outlier
   // that pulled the window at a small mu and was then rejected moved it
   // there and back, which calls for no refinement.
-  for (int i = first; i < numPoses(); ++i)
-    stats.window_displacement += displacement(window_before[i - first], solver_.pose(i));
-  unrefined_step_ += stats.window_displacement;
   if (first == 0) unrefined_step_ = 0.0;
-  if (first > 0 && options_.global_refinement &&
-      unrefined_step_ / numPoses() >= options_.convergence_step) {
+  if (may_refine)
+    for (int i = first; i < numPoses(); ++i)
+      unrefined_step_ += displacement(window_before[i - first], solver_.pose(i));
+  if (may_refine && unrefined_step_ / numPoses() >= options_.convergence_step) {
     const int before = stats.iterations;
     settle(0, max_settle, std::numeric_limits<double>::infinity(), &stats);
     stats.refinement_iterations = stats.iterations - before;

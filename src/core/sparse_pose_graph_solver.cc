@@ -6,7 +6,6 @@
 #include <stdexcept>
 
 #include <Eigen/OrderingMethods>
-#include <cstdlib>
 
 namespace agnc_pgo {
 namespace core {
@@ -139,8 +138,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
   // block row of variable v in the permuted Hessian. CHOLMOD (SE(3)) orders
   // the scalar pattern itself, so there the variables keep their order.
-  static const int sn_min = std::getenv("AGNC_SN") ? std::atoi(std::getenv("AGNC_SN")) : 1 << 30;
-  supernodal_ = d == 6 || nv >= sn_min;
+  supernodal_ = d == 6;
   position_.resize(nv);
   if (supernodal_) {
     for (int v = 0; v < nv; ++v) position_[v] = v;

@@ -45,8 +45,6 @@ struct UpdateStats {
   int first_variable = 0;  // oldest pose that was free in this update
   bool converged = false;  // mean step per pose below options.convergence_step at the end
   double max_mean_step = 0.0;  // largest mean tangent step per free pose of any iteration
-  double total_step = 0.0;     // sum of the tangent step norms of every pose over all iterations
-  double window_displacement = 0.0;  // net: sum over the window's poses of how far each moved
 };
 
 class IncrementalGnc {
@@ -101,7 +99,9 @@ class IncrementalGnc {
   void validateEdge(const Edge& edge, bool allow_new_pose) const;
   void refresh(LoopClosure* loop);
   void applyOverride(LoopClosure* loop);
-  void setDormant(LoopClosure* loop, bool dormant);
+  // How a loop closure sits in the linear system: dormant (out of it) or
+  // decoupled (no off-diagonal block); both false = fully in.
+  void setSparsity(LoopClosure* loop, bool dormant, bool decoupled);
   bool staysDormant(const LoopClosure& loop) const;
   void acceptConsistent(const std::vector<int>& graduating);
   void acceptAsInlier(LoopClosure* loop);  // mu = 1, graduation over
