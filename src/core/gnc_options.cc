@@ -60,6 +60,9 @@ void validate(const GncOptions& o) {
     throw std::invalid_argument("decoupled_weight must be in [0, 1)");
   if (!(o.dormant_weight >= 0.0 && o.dormant_weight < 1.0))
     throw std::invalid_argument("dormant_weight must be in [0, 1)");
+  if (!(o.supported_dormant_weight >= 0.0 && o.supported_dormant_weight < 1.0))
+    throw std::invalid_argument("supported_dormant_weight must be in [0, 1)");
+  if (o.support_radius < 0) throw std::invalid_argument("support_radius must be >= 0 (0: off)");
   if (o.max_gnc_steps < 6) throw std::invalid_argument("max_gnc_steps must be >= 6");
   if (o.iterations_per_step < 1) throw std::invalid_argument("iterations_per_step must be >= 1");
   if (!(o.trust_region_radius > 0.0)) throw std::invalid_argument("trust_region_radius must be > 0");

@@ -6,6 +6,7 @@
 #include <stdexcept>
 #include <string>
 
+#include "agnc_pgo/core/loop_consistency.h"
 #include "agnc_pgo/core/shape_function.h"
 
 namespace agnc_pgo {
@@ -85,8 +86,31 @@ int IncrementalGnc::addLoopClosure(const Edge& edge) {
       options_.schedule == ScheduleKind::kNone ? FactorMode::kPlain : FactorMode::kRobust;
   loop.factor = solver_.addFactor(edge.from, edge.to, edge.measurement, edge.information, mode);
   loops_.push_back(loop);
-  pending_.push_back(static_cast<int>(loops_.size()) - 1);
-  return static_cast<int>(loops_.size()) - 1;
+  const int index = static_cast<int>(loops_.size()) - 1;
+  const int newer = std::max(edge.from, edge.to);
+  if (static_cast<int>(loops_by_newer_pose_.size()) <= newer) loops_by_newer_pose_.resize(newer + 1);
+  loops_by_newer_pose_[newer].push_back(index);
+  findSupport(index);
+  pending_.push_back(index);
+  return index;
+}
+
+void IncrementalGnc::findSupport(int index) {
+  const int radius = options_.support_radius;
+  if (radius == 0) return;
+  LoopClosure& loop = loops_[index];
+  const int newer = std::max(loop.edge.from, loop.edge.to);
+  const int last = std::min(newer + radius, static_cast<int>(loops_by_newer_pose_.size()) - 1);
+  const auto pose = [this](int id) { return solver_.pose(id); };
+  for (int p = std::max(0, newer - radius); p <= last; ++p) {
+    for (int other : loops_by_newer_pose_[p]) {
+      if (other == index || !areNeighbours(loop.edge, loops_[other].edge, radius)) continue;
+      const double d = cycleDistance(dimension_, loop.edge, loops_[other].edge, pose);
+      if (!schedule_.isInlier(schedule_.distanceOf(d))) continue;
+      loop.supported = true;
+      loops_[other].supported = true;
+    }
+  }
 }
 
 Poses IncrementalGnc::poses() const {
@@ -109,7 +133,7 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
   const bool rejected_at_one = loop->override_mode == LoopOverride::kAuto &&
                                options_.schedule != ScheduleKind::kNone && !loop->graduation.graduating &&
                                loop->graduation.mu >= 1.0;
-  setSparsity(loop, rejected_at_one && loop->weight < options_.dormant_weight,
+  setSparsity(loop, rejected_at_one && loop->weight < dormantWeight(*loop),
               rejected_at_one && loop->weight < options_.decoupled_weight);
 }
 
@@ -127,7 +151,11 @@ bool IncrementalGnc::staysDormant(const LoopClosure& loop) const {
   const bool restarts_at_one = options_.schedule == ScheduleKind::kRisam
                                    ? g.mu_init >= 1.0
                                    : g.init_step >= ShapeFunction::kStepsToOne;
-  return restarts_at_one && solver_.weight(loop.factor) < options_.dormant_weight;
+  return restarts_at_one && solver_.weight(loop.factor) < dormantWeight(loop);
+}
+
+double IncrementalGnc::dormantWeight(const LoopClosure& loop) const {
+  return loop.supported ? options_.supported_dormant_weight : options_.dormant_weight;
 }
 
 void IncrementalGnc::classifyAll() {

@@ -143,6 +143,8 @@ BackendParameters readParameters(const ros::NodeHandle& nh) {
   get(nh, "gnc/restart_trust_region", &p.gnc.restart_trust_region, "a bool");
   getDouble(nh, "gnc/dormant_weight", &p.gnc.dormant_weight);
   getDouble(nh, "gnc/decoupled_weight", &p.gnc.decoupled_weight);
+  getDouble(nh, "gnc/supported_dormant_weight", &p.gnc.supported_dormant_weight);
+  get(nh, "gnc/support_radius", &p.gnc.support_radius, "an integer");
   get(nh, "optimize_iterations", &p.optimize_iterations, "an integer");
 
   getDouble(nh, "tf_rate", &p.tf_rate);
@@ -178,7 +180,8 @@ std::string describe(const BackendParameters& p) {
       << p.gnc.trust_region_radius << (p.gnc.restart_trust_region ? ", restarted per update" : ", carried over")
       << ", max " << p.gnc.max_trust_region_radius << ")"
       << ", accept_consistent_on_arrival " << (p.gnc.accept_consistent_on_arrival ? "true" : "false")
-      << ", dormant_weight " << p.gnc.dormant_weight << ", decoupled_weight " << p.gnc.decoupled_weight
+      << ", dormant_weight " << p.gnc.dormant_weight << " (supported " << p.gnc.supported_dormant_weight
+      << ", support_radius " << p.gnc.support_radius << " poses), decoupled_weight " << p.gnc.decoupled_weight
       << ", max_settle_iterations " << p.gnc.max_settle_iterations << ", convergence_step "
       << p.gnc.convergence_step << ", max_gnc_steps " << p.gnc.max_gnc_steps << "\n"
       << "  tf_rate " << p.tf_rate << " Hz (future-dated " << p.tf_future_tolerance << " s), visualization_rate "

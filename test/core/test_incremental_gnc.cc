@@ -286,13 +286,46 @@ TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
   EXPECT_LT(absoluteTrajectoryError(result.estimate, reference.poses, 2), 0.1);
 }
 
+// Rejected random outliers leave the cost once their weight falls below
+// dormant_weight; kept down to 1e-8 (as supported ones are), the sum of their
+// Geman-McClure tails pulls the map away from the inlier optimum.
+TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
+  PoseGraph reference;
+  const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
+                                       "manhattanOlson3500", 50.0, 1, &reference);
+  const IncrementalLog log = logFromGraph(graph, "m1200");
+  ReplayOptions options;
+  const ReplayResult result = replay(log, options);
+  options.gnc.dormant_weight = options.gnc.supported_dormant_weight;
+  const ReplayResult pulled = replay(log, options);
+  EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
+  EXPECT_DOUBLE_EQ(pulled.counts.precision(), 1.0);
+  const double ate = absoluteTrajectoryError(result.estimate, reference.poses, 2);
+  const double ate_pulled = absoluteTrajectoryError(pulled.estimate, reference.poses, 2);
+  EXPECT_LT(ate, 0.05);  // measured 0.025 m (0.142 m pulled)
+  EXPECT_LT(ate, 0.5 * ate_pulled);
+}
+
 // Entry by entry, the ring's first loop closures arrive with a large drift
-// and are rejected at first; their small remaining pull must still close the
-// ring (a dormant threshold of 1e-6 cut it off: recall 0).
+// and are rejected at first; they agree with one another, so they stay in
+// the cost down to supported_dormant_weight and their small remaining pull
+// closes the ring.
 TEST(IncrementalGncEndToEnd, RingClosesWhenReplayedEntryByEntry) {
   const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
   const ReplayResult result = replay(logFromGraph(graph, "ring"), ReplayOptions());
   EXPECT_EQ(result.counts.true_positive, 26);
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
   EXPECT_DOUBLE_EQ(result.counts.recall(), 1.0);
+  for (const LoopClosureResult& loop : result.loop_closures)
+    EXPECT_EQ(loop.supported, !loop.edge.is_outlier) << loop.edge.from << " -> " << loop.edge.to;
+}
+
+// Without the support of its neighbours, each closing loop closure goes
+// dormant at dormant_weight on its own and the ring stays open.
+TEST(IncrementalGncEndToEnd, RingStaysOpenWithoutSupport) {
+  const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
+  ReplayOptions options;
+  options.gnc.support_radius = 0;
+  const ReplayResult result = replay(logFromGraph(graph, "ring"), options);
+  EXPECT_EQ(result.counts.true_positive, 0);
 }

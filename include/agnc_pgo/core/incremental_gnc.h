@@ -33,6 +33,7 @@ struct LoopClosure {
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (distance < q(0.95) under the convention)
   bool dormant = false;       // out of the linear system (see GncOptions::dormant_weight)
+  bool supported = false;     // agrees with a neighbouring loop closure (GncOptions::support_radius)
   LoopOverride override_mode = LoopOverride::kAuto;
 };
 
@@ -103,6 +104,9 @@ class IncrementalGnc {
   // decoupled (no off-diagonal block); both false = fully in.
   void setSparsity(LoopClosure* loop, bool dormant, bool decoupled);
   bool staysDormant(const LoopClosure& loop) const;
+  double dormantWeight(const LoopClosure& loop) const;
+  // Marks the loop closure and every neighbour it agrees with as supported.
+  void findSupport(int index);
   void acceptConsistent(const std::vector<int>& graduating);
   void acceptAsInlier(LoopClosure* loop);  // mu = 1, graduation over
   // One solver iteration, counted into stats (iterations, steps).
@@ -115,6 +119,7 @@ class IncrementalGnc {
   SparsePoseGraphSolver solver_;
   std::vector<Edge> odometry_;
   std::vector<LoopClosure> loops_;
+  std::vector<std::vector<int>> loops_by_newer_pose_;  // loop indices by their newer endpoint
   std::vector<int> pending_;       // loop indices queued for the next update
   std::vector<int> needs_restart_; // loop indices whose override changed
   double unrefined_step_ = 0.0;  // window displacements since the last whole-graph refinement
