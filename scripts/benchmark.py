@@ -340,8 +340,10 @@ def reproduce_command():
 
 
 def shown_path(path):
+    """A path inside the repository relative to it; outside it, the file name only
+    (the report must not carry the paths of one machine)."""
     relative = os.path.relpath(os.path.abspath(path), REPO)
-    return path if relative.startswith("..") else relative
+    return os.path.basename(path) if relative.startswith("..") else relative
 
 
 def header(args, started, load_before):
