@@ -21,7 +21,10 @@ Intel logs. The raw output of every run (metrics.json, latency.csv,
 estimate.g2o, ...) stays in --work (default build/benchmark/).
 
 Timings need a quiet machine: keep --jobs 1 for numbers you publish.
-Needs only Python 3 with numpy and matplotlib (Debian's python3-matplotlib).
+Needs only Python 3 with numpy and matplotlib (Debian's python3-matplotlib);
+where perf stat can count (Debian's linux-perf, installed by benchmark.sh),
+every run's user-space instructions are counted too: unlike the runtime, they
+do not drift with the speed of a virtual machine.
 """
 
 import argparse
@@ -37,6 +40,7 @@ import shutil
 import statistics
 import subprocess
 import sys
+import tempfile
 import threading
 import time
 from typing import List, Optional
@@ -226,12 +230,51 @@ class Result:
         return statistics.median(self.runtimes) if self.runtimes else None
 
 
-def run_once(cell, tool, run_dir, timeout):
-    """One replay; returns (metrics dict, None) or (None, error status)."""
+def perf_command(output):
+    """perf stat counting the user-space instructions of a command into `output`
+    (the one measure of work that the VM's speed drift does not touch)."""
+    return ["perf", "stat", "-x,", "-e", "instructions:u", "-o", output, "--"]
+
+
+def read_instructions(path):
+    """The instruction count perf stat -x, wrote, or None."""
+    try:
+        with open(path) as f:
+            for line in f:
+                fields = line.strip().split(",")
+                if len(fields) > 2 and fields[2].startswith("instructions") and fields[0].isdigit():
+                    return int(fields[0])
+    except OSError:
+        pass
+    return None
+
+
+def perf_available():
+    """Whether perf stat can count instructions here (not on every VM)."""
+    if shutil.which("perf") is None:
+        return False
+    with tempfile.TemporaryDirectory() as tmp:
+        output = os.path.join(tmp, "perf.csv")
+        try:
+            subprocess.run(perf_command(output) + ["true"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                           timeout=30)
+        except (OSError, subprocess.TimeoutExpired):
+            return False
+        return read_instructions(output) is not None
+
+
+def run_once(cell, tool, run_dir, timeout, count_instructions=False):
+    """One replay; returns (metrics dict, None) or (None, error status). With
+    count_instructions, metrics gets "instructions" (whole process: reading,
+    the reference optimum and the replay)."""
     shutil.rmtree(run_dir, ignore_errors=True)
     os.makedirs(run_dir)
+    perf_output = os.path.join(run_dir, "perf.csv")
+    command = cell.command(tool, run_dir)
+    if count_instructions:
+        command = perf_command(perf_output) + command
     try:
-        proc = subprocess.run(cell.command(tool, run_dir), stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+        proc = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                               text=True, timeout=timeout)
     except subprocess.TimeoutExpired:
         return None, f"timeout ({timeout:g} s)"
@@ -240,9 +283,12 @@ def run_once(cell, tool, run_dir, timeout):
         return None, f"failed: {message}"
     try:
         with open(os.path.join(run_dir, "metrics.json")) as f:
-            return json.load(f), None
+            metrics = json.load(f)
     except (OSError, ValueError) as e:
         return None, f"failed: unreadable metrics.json ({e})"
+    if count_instructions:
+        metrics["instructions"] = read_instructions(perf_output)
+    return metrics, None
 
 
 def run_cell(cell, args):
@@ -250,7 +296,7 @@ def run_cell(cell, args):
     runs = []
     for k in range(args.repeat):
         run_dir = os.path.join(cell_dir, f"run{k + 1}")
-        metrics, error = run_once(cell, args.tool, run_dir, args.timeout)
+        metrics, error = run_once(cell, args.tool, run_dir, args.timeout, args.count_instructions)
         if error:
             return Result(cell, error)
         runs.append((metrics, run_dir))
@@ -367,6 +413,7 @@ def header(args, started, load_before):
 
 
 RESULT_COLUMNS = ("input", "outliers %", "seed", "schedule", "runtime s (median)", "solves", "GNC steps",
+                  "instructions G",
                   "precision", "recall", "ATE m", "ATE vs outlier-free optimum m", "p50 update ms",
                   "p95 update ms", "max update ms", "peak RSS MB")
 
@@ -378,7 +425,7 @@ def result_row(r):
         return head + [r.status] + [""] * (len(RESULT_COLUMNS) - len(head) - 1)
     m = r.metrics
     return head + [fmt(r.runtime, 3) + ("" if r.deterministic else "*"), count(m, "solves"),
-                   count(m, "gnc_steps"), fmt(m.get("precision"), 3), fmt(m.get("recall"), 3),
+                   count(m, "gnc_steps"), fmt(giga(m.get("instructions")), 2), fmt(m.get("precision"), 3), fmt(m.get("recall"), 3),
                    fmt(m.get("ate_m"), 3), fmt(m.get("ate_vs_inlier_optimum_m"), 3),
                    fmt(m.get("update_ms_p50"), 1), fmt(m.get("update_ms_p95"), 1),
                    fmt(m.get("update_ms_max"), 1), fmt(m.get("peak_rss_mb"), 1)]
@@ -405,33 +452,56 @@ def results_section(results):
     return lines + notes
 
 
+def giga(value):
+    return None if value is None else value / 1e9
+
+
+def ratio(a, b):
+    return a / b if a is not None and b else float("nan")
+
+
 def ratio_section(results):
-    """Per input: agnc/risam runtime and GNC-step ratios."""
-    by_input = {}
+    """Per input: agnc/risam runtime, instruction and GNC-step ratios; then
+    per dataset, their geometric means over its inputs."""
+    by_input, dataset_of = {}, {}
     for r in results:
         if r.ok:
             by_input.setdefault(r.cell.input_key, {})[r.cell.schedule] = r
-    rows, runtime_ratios, step_ratios = [], [], []
+            dataset_of[r.cell.input_key] = (r.cell.dataset, r.cell.kind)
+    rows, per_dataset = [], {}
     for key, runs in by_input.items():
         if "agnc" not in runs or "risam" not in runs:
             continue
         a, b = runs["agnc"], runs["risam"]
-        runtime_ratio = a.runtime / b.runtime if b.runtime else float("nan")
-        steps_b = b.metrics.get("gnc_steps") or 0
-        step_ratio = a.metrics.get("gnc_steps", 0) / steps_b if steps_b else float("nan")
-        runtime_ratios.append(runtime_ratio)
-        step_ratios.append(step_ratio)
+        ratios = (ratio(a.runtime, b.runtime),
+                  ratio(a.metrics.get("instructions"), b.metrics.get("instructions")),
+                  ratio(a.metrics.get("gnc_steps"), b.metrics.get("gnc_steps")))
+        per_dataset.setdefault(dataset_of[key], []).append(ratios)
         label, outliers, seed = key
         rows.append([f"`{label}`", fmt(outliers, 0), DASH if seed is None else str(seed),
-                     fmt(a.runtime, 3), fmt(b.runtime, 3), fmt(runtime_ratio, 2),
-                     count(a.metrics, "gnc_steps"), str(steps_b), fmt(step_ratio, 2)])
+                     fmt(a.runtime, 3), fmt(b.runtime, 3), fmt(ratios[0], 2), fmt(ratios[1], 2),
+                     count(a.metrics, "gnc_steps"), count(b.metrics, "gnc_steps"), fmt(ratios[2], 2)])
     if not rows:
         return ["Needs both the `agnc` and the `risam` schedule on the same input."]
-    rows.append(["**geometric mean**", "", "", "", "", fmt(geometric_mean(runtime_ratios), 2), "", "",
-                 fmt(geometric_mean(step_ratios), 2)])
-    columns = ("input", "outliers %", "seed", "agnc s", "risam s", "runtime agnc/risam", "agnc GNC steps",
-               "risam GNC steps", "GNC steps agnc/risam")
-    return markdown_table(columns, rows) + ["", "Ratios below 1: `agnc` needs less than `risam`."]
+    columns = ("input", "outliers %", "seed", "agnc s", "risam s", "runtime agnc/risam",
+               "instructions agnc/risam", "agnc GNC steps", "risam GNC steps", "GNC steps agnc/risam")
+    summary_columns = ("dataset", "input", "inputs", "runtime agnc/risam (geo. mean)", "runtime worst",
+                       "instructions agnc/risam (geo. mean)", "instructions worst",
+                       "GNC steps agnc/risam (geo. mean)", "GNC steps worst")
+    summary = []
+    for (dataset, kind), values in per_dataset.items():
+        columns_of = list(zip(*values))
+        cells = [dataset, kind, str(len(values))]
+        for k in range(3):
+            finite = [v for v in columns_of[k] if np.isfinite(v)]
+            cells += [fmt(geometric_mean(columns_of[k]), 2), fmt(max(finite) if finite else None, 2)]
+        summary.append(cells)
+    return (markdown_table(columns, rows)
+            + ["", "Per dataset (every input and seed of it):", ""]
+            + markdown_table(summary_columns, summary)
+            + ["", "Ratios below 1: `agnc` needs less than `risam`. Instructions: user-space instructions of "
+               "the whole process (perf stat; `–` where perf cannot count), reading and the reference optimum "
+               "included, which both schedules share; unlike the runtime they do not drift with the VM."])
 
 
 def geometric_mean(values):
@@ -691,6 +761,8 @@ def parse_arguments(argv=None):
         help="where the synthetic graphs go (default build/scaling/)")
     add("--sphere", action="store_true", help="also run the Sphere2500 cells (SE(3); ~9 min each)")
     add("--list", action="store_true", help="list the selected cells and exit")
+    add("--no-instructions", dest="count_instructions", action="store_false",
+        help="do not count instructions with perf stat (counted by default where perf can)")
     args = parser.parse_args(argv)
     args.schedules = ordered(args.schedules)
     args.seeds = ordered(args.seeds)
@@ -711,6 +783,9 @@ def main(argv=None):
     if not cells:
         print("no cell selected", file=sys.stderr)
         return 1
+    if args.count_instructions and not perf_available():
+        print("perf stat cannot count instructions here: the instructions column stays empty", flush=True)
+        args.count_instructions = False
     started, load_before = datetime.datetime.now(datetime.timezone.utc), os.getloadavg()
     print(f"{len(cells)} cells, {args.repeat} run(s) each, {args.jobs} at a time; raw output in "
           f"{shown_path(args.work)}", flush=True)

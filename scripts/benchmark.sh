@@ -8,6 +8,8 @@
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
+# perf stat counts each run's instructions (the drift-free measure of work).
+AGNC_PACKAGES+=(linux-perf)
 agnc_install_dependencies
 agnc_build
 
