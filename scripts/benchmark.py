@@ -85,7 +85,7 @@ class Cell:
     dataset: str                # display name of the dataset
     input: str                  # path of the .irl / .g2o file
     outliers: Optional[float]   # percent (None: unknown)
-    seed: Optional[int]         # None: outliers fixed in the .irl file
+    seed: Optional[int]         # None: outliers fixed in the .irl file, or none injected
     schedule: str
     ground_truth: Optional[str] = None
 
@@ -101,7 +101,9 @@ class Cell:
     def command(self, tool, out_dir):
         cmd = [tool, "--input", self.input, "--schedule", self.schedule, "--output", out_dir, "--quiet"]
         if self.kind != "irl":
-            cmd += ["--outliers", f"{self.outliers:g}", "--seed", str(self.seed)]
+            cmd += ["--outliers", f"{self.outliers:g}"]
+        if self.kind != "irl" and self.seed is not None:
+            cmd += ["--seed", str(self.seed)]
         if self.ground_truth:
             cmd += ["--ground-truth", self.ground_truth]
         return cmd
@@ -152,11 +154,17 @@ def irl_cells(schedules, quick):
 
 
 def g2o_cells(schedules, seeds):
+    """Every g2o dataset at every outlier rate and seed; a dataset with ground
+    truth also outlier-free (the reference of its ATE)."""
     cells = []
-    for key, (display, g2o, _) in DATASETS.items():
+    for key, (display, g2o, gt) in DATASETS.items():
         path = os.path.join(SHARED, "datasets", g2o)
         if not os.path.exists(path):
             continue
+        if gt:
+            for schedule in schedules:
+                cells.append(Cell(f"g2o/{key}/0pct/{schedule}", "g2o", display, path, 0.0, None, schedule,
+                                  ground_truth_path(key)))
         for percent in OUTLIER_PERCENTS:
             for seed in seeds:
                 for schedule in schedules:
@@ -442,7 +450,8 @@ def results_section(results):
     lines = markdown_table(RESULT_COLUMNS, [result_row(r) for r in results])
     notes = [
         "",
-        "Seed `–`: the outliers are fixed in the `.irl` file (riSAM's generator); `.g2o` inputs get outliers "
+        "Seed `–`: the outliers are fixed in the `.irl` file (riSAM's generator), or there are none; `.g2o` "
+        "inputs get outliers "
         "injected by the tool with the given seed. ATE: after rigid alignment to the shipped ground truth "
         "(`_gt` files), `–` where none is shipped. Update latencies are per loop-closure update "
         "(`latency.csv`).",
@@ -502,6 +511,56 @@ def ratio_section(results):
             + ["", "Ratios below 1: `agnc` needs less than `risam`. Instructions: user-space instructions of "
                "the whole process (perf stat; `–` where perf cannot count), reading and the reference optimum "
                "included, which both schedules share; unlike the runtime they do not drift with the VM."])
+
+
+def accuracy_section(results):
+    """The g2o cells per dataset, outlier rate and schedule over their seeds
+    (the acceptance matrix of the core issue), then agnc/risam per dataset and
+    outlier rate."""
+    groups, reference = {}, {}
+    for r in results:
+        if r.ok and r.cell.kind == "g2o":
+            groups.setdefault((r.cell.dataset, r.cell.outliers, r.cell.schedule), []).append(r)
+            if r.cell.outliers == 0:
+                reference[(r.cell.dataset, r.cell.schedule)] = r.metrics.get("ate_m")
+    if not groups:
+        return []
+    rows = []
+    for (dataset, outliers, schedule), runs in groups.items():
+        metrics = [r.metrics for r in runs]
+        ates = [m["ate_m"] for m in metrics if m.get("ate_m") is not None]
+        ate = max(ates) if ates else None
+        free = reference.get((dataset, schedule))
+        change = f"{100 * (ate / free - 1):+.1f} %" if ate is not None and free and outliers else DASH
+        seeds = ",".join(DASH if r.cell.seed is None else str(r.cell.seed) for r in runs)
+        rows.append([dataset, fmt(outliers, 0) + " %", schedule, seeds,
+                     fmt(min(m["precision"] for m in metrics), 3), fmt(min(m["recall"] for m in metrics), 3),
+                     fmt(ate, 3), change, fmt(max(m["ate_vs_inlier_optimum_m"] for m in metrics), 3),
+                     fmt(statistics.median(r.runtime for r in runs), 2),
+                     fmt(statistics.median(m["gnc_steps"] for m in metrics), 0)])
+    columns = ("dataset", "outliers", "schedule", "seeds", "precision (min)", "recall (min)", "ATE m (max)",
+               "ATE vs outlier-free run", "ATE vs outlier-free optimum m (max)", "runtime s (median)",
+               "GNC steps (median)")
+    ratio_rows = []
+    for (dataset, outliers, schedule), runs in groups.items():
+        if schedule != "agnc" or not outliers:
+            continue
+        risam = {r.cell.seed: r for r in groups.get((dataset, outliers, "risam"), [])}
+        pairs = [(a, risam[a.cell.seed]) for a in runs if a.cell.seed in risam]
+        if not pairs:
+            continue
+        cells = [dataset, fmt(outliers, 0) + " %", str(len(pairs))]
+        for measure in (lambda r: r.runtime, lambda r: r.metrics.get("instructions"),
+                        lambda r: r.metrics.get("gnc_steps")):
+            values = [v for v in (ratio(measure(a), measure(b)) for a, b in pairs) if np.isfinite(v)]
+            cells.append(f"{statistics.median(values):.2f}, {max(values):.2f}" if values else DASH)
+        ratio_rows.append(cells)
+    ratio_columns = ("dataset", "outliers", "seeds", "runtime agnc/risam (median, worst)",
+                     "instructions agnc/risam (median, worst)", "GNC steps agnc/risam (median, worst)")
+    return (markdown_table(columns, rows)
+            + ["", "ATE against the shipped ground truth (`–` where none is shipped), worst seed; \"vs "
+               "outlier-free run\": against the same schedule's run without outliers.", ""]
+            + markdown_table(ratio_columns, ratio_rows))
 
 
 def geometric_mean(values):
@@ -700,6 +759,9 @@ def write_report(results, graphs, args, started, load_before):
     if main or not scaling:
         lines += ["", "## Results", ""] + results_section(main)
         lines += ["", "## agnc vs risam", ""] + ratio_section(main)
+        accuracy = accuracy_section(main)
+        if accuracy:
+            lines += ["", "## g2o datasets by outlier rate (seeds pooled)", ""] + accuracy
     if any(r.ok for r in main):
         plot_latency(main, os.path.join(args.out, "benchmark_latency.png"))
         plot_runtime(main, os.path.join(args.out, "benchmark_runtime.png"))
