@@ -5,6 +5,8 @@
 #include <limits>
 #include <stdexcept>
 
+#include <omp.h>
+
 #include <Eigen/OrderingMethods>
 
 namespace agnc_pgo {
@@ -13,6 +15,16 @@ namespace {
 
 constexpr int kMaxDampingAttempts = 6;
 constexpr double kMinRadius = 1e-4;
+
+// CHOLMOD 3 (Debian 12's SuiteSparse 5.12) runs loops of its supernodal
+// factorisation on a team of 4 OpenMP threads fixed when it was compiled,
+// whatever OMP_NUM_THREADS says. On two cores they oversubscribe the machine
+// (about 4 million futex calls in one Sphere2500 replay) and made the replay
+// slower and erratic (Sphere2500 at 10 %: 21-34 s, serial 14-16 s). Zero
+// active levels make every parallel region this thread starts run on the
+// thread alone; libgomp keeps that setting per thread, so the other threads
+// of the process (a nodelet manager's) keep their parallelism.
+void keepCholmodSerial() { omp_set_max_active_levels(0); }
 
 }  // namespace
 
@@ -200,8 +212,12 @@ void SparsePoseGraphSolver::buildStructure(int first) {
       locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
   }
   gradient_.resize(n);
-  if (supernodal_) supernodal_cholesky_.analyzePattern(hessian_);
-  else simplicial_.analyzePattern(hessian_);
+  if (supernodal_) {
+    keepCholmodSerial();
+    supernodal_cholesky_.analyzePattern(hessian_);
+  } else {
+    simplicial_.analyzePattern(hessian_);
+  }
 
   structure_first_ = first;
   structure_poses_ = numPoses();
@@ -275,6 +291,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   Eigen::VectorXd gauss_newton;
   bool factorized = false;
   if (supernodal_) {
+    keepCholmodSerial();
     supernodal_cholesky_.factorize(hessian_);
     factorized = supernodal_cholesky_.info() == Eigen::Success;
     if (factorized) gauss_newton = supernodal_cholesky_.solve(-gradient_);

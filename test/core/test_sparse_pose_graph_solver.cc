@@ -2,8 +2,11 @@
 // ceres::Solve on the same graphs.
 #include <gtest/gtest.h>
 
+#include <omp.h>
+
 #include <memory>
 #include <string>
+#include <thread>
 
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
@@ -134,6 +137,22 @@ TEST(SparsePoseGraphSolver, DecoupledFactorKeepsItsPullAndTheOptimum) {
   EXPECT_LT(decoupled_gap, 1e-6);
   EXPECT_GT(disabled_gap, 1e-2);
   EXPECT_NEAR(decoupled->totalCost(), coupled->totalCost(), 1e-9 * coupled->totalCost());
+}
+
+// CHOLMOD's own OpenMP team is switched off for the thread that factorises
+// (see keepCholmodSerial), and for that thread only: a nodelet manager's other
+// threads keep their parallelism.
+TEST(SparsePoseGraphSolver, Se3FactorisationIsSerialOnlyOnItsOwnThread) {
+  int on_solver_thread = -1, on_other_thread = -1;
+  std::thread solver_thread([&on_solver_thread] {
+    auto solver = solveIncrementalSolver(readG2o(dataset("tinyGrid3D.g2o")), 1);
+    on_solver_thread = omp_get_max_active_levels();
+  });
+  solver_thread.join();
+  std::thread other_thread([&on_other_thread] { on_other_thread = omp_get_max_active_levels(); });
+  other_thread.join();
+  EXPECT_EQ(on_solver_thread, 0);
+  EXPECT_GT(on_other_thread, 0);
 }
 
 TEST(SparsePoseGraphSolver, RejectsUnknownPosesAndBadInformation) {
