@@ -381,7 +381,8 @@ def git_commit():
         return subprocess.run(["git", "-C", REPO, *argv], stdout=subprocess.PIPE, stderr=subprocess.DEVNULL,
                               text=True).stdout.strip()
     commit = git("rev-parse", "--short", "HEAD") or "unknown"
-    dirty = git("status", "--porcelain", "--untracked-files=no")
+    # The reports of earlier runs (doc/) do not change what ran.
+    dirty = git("status", "--porcelain", "--untracked-files=no", "--", ".", ":(exclude)doc")
     return commit + (" (working tree has uncommitted changes)" if dirty else "")
 
 
