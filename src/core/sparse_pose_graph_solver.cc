@@ -143,8 +143,9 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     const int va = f.a == kAnchor ? -1 : var(f.a);
     const int vb = var(f.b);
     if (va < 0 && vb < 0) continue;
-    if (va >= 0 && vb >= 0 && !f.decoupled) pattern.emplace_back(std::max(va, vb), std::min(va, vb), 1.0);
-    slots_.push_back(FactorSlot{k, va, vb, 0, 0, 0, 0, -1, 0});
+    const bool coupled = va >= 0 && vb >= 0 && !f.decoupled;
+    if (coupled) pattern.emplace_back(std::max(va, vb), std::min(va, vb), 1.0);
+    slots_.push_back(FactorSlot{k, va, vb, coupled, 0, 0, 0, 0, -1, 0});
   }
 
   // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
@@ -173,8 +174,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   std::vector<std::vector<int>> rows(nv);
   for (int j = 0; j < nv; ++j) rows[j].push_back(j);
   for (const FactorSlot& s : slots_)
-    if (s.ia >= 0 && s.ib >= 0 && !factors_[s.factor].decoupled)
-      rows[std::max(s.ia, s.ib)].push_back(std::min(s.ia, s.ib));
+    if (s.coupled) rows[std::max(s.ia, s.ib)].push_back(std::min(s.ia, s.ib));
   std::vector<long> column_start(nv + 1, 0);
   for (int j = 0; j < nv; ++j) {
     std::sort(rows[j].begin(), rows[j].end());
@@ -208,8 +208,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   for (FactorSlot& s : slots_) {
     if (s.ia >= 0) locate(s.ia, s.ia, &s.base_aa, &s.stride_aa);
     if (s.ib >= 0) locate(s.ib, s.ib, &s.base_bb, &s.stride_bb);
-    if (s.ia >= 0 && s.ib >= 0 && !factors_[s.factor].decoupled)
-      locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
+    if (s.coupled) locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
   }
   gradient_.resize(n);
   if (supernodal_) {
@@ -259,7 +258,7 @@ double SparsePoseGraphSolver::linearize() {
       const Block wja = w * ja.transpose();
       add_block(s.base_aa, s.stride_aa, wja * ja);
       gradient_.template segment<D>(s.ia * D) += wja * r;
-      if (s.base_ab >= 0) {
+      if (s.coupled) {
         // Block (min, max) of the upper triangle: J_min^T J_max.
         if (s.ia < s.ib) add_block(s.base_ab, s.stride_ab, wja * jb);
         else add_block(s.base_ab, s.stride_ab, w * jb.transpose() * ja);

@@ -131,9 +131,10 @@ class SparsePoseGraphSolver {
   struct FactorSlot {
     int factor;
     int ia, ib;               // block row in the permuted Hessian, or -1 (fixed)
+    bool coupled;             // has an off-diagonal block: both are variables, factor not decoupled
     long base_aa, stride_aa;  // (ia, ia)
     long base_bb, stride_bb;  // (ib, ib)
-    long base_ab, stride_ab;  // (min, max) when both are variables and coupled, else base_ab = -1
+    long base_ab, stride_ab;  // (min, max) when coupled
   };
 
   void buildStructure(int first_variable);
