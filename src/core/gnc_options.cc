@@ -56,15 +56,11 @@ void validate(const GncOptions& o) {
   if (o.max_settle_iterations < 0) throw std::invalid_argument("max_settle_iterations must be >= 0");
   if (!(o.convergence_step > 0.0)) throw std::invalid_argument("convergence_step must be > 0");
   if (o.max_window_poses < 0) throw std::invalid_argument("max_window_poses must be >= 0 (0: no bound)");
-  if (!(o.decoupled_weight >= 0.0 && o.decoupled_weight < 1.0))
-    throw std::invalid_argument("decoupled_weight must be in [0, 1)");
   if (!(o.dormant_weight >= 0.0 && o.dormant_weight < 1.0))
     throw std::invalid_argument("dormant_weight must be in [0, 1)");
-  if (!(o.supported_dormant_weight >= 0.0 && o.supported_dormant_weight < 1.0))
-    throw std::invalid_argument("supported_dormant_weight must be in [0, 1)");
   if (o.support_radius < 0) throw std::invalid_argument("support_radius must be >= 0 (0: off)");
   if (o.max_gnc_steps < 6) throw std::invalid_argument("max_gnc_steps must be >= 6");
-  if (o.iterations_per_step < 1) throw std::invalid_argument("iterations_per_step must be >= 1");
+  if (o.max_iterations_per_step < 1) throw std::invalid_argument("max_iterations_per_step must be >= 1");
   if (!(o.trust_region_radius > 0.0)) throw std::invalid_argument("trust_region_radius must be > 0");
   if (!(o.max_trust_region_radius >= o.trust_region_radius))
     throw std::invalid_argument("max_trust_region_radius must be >= trust_region_radius");

@@ -66,6 +66,11 @@ void GraduationSchedule::finishStep(GraduationState* s) const {
   if (s->steps_at_one >= 2 || options_.schedule == ScheduleKind::kNone) s->graduating = false;
 }
 
+void GraduationSchedule::startAtOne(GraduationState* s) const {
+  s->mu_init = 1.0;
+  s->init_step = ShapeFunction::kStepsToOne;
+}
+
 void GraduationSchedule::adaptInitial(GraduationState* s, double m) const {
   if (!options_.adapt_initial_mu) return;
   if (options_.schedule == ScheduleKind::kRisam) {

@@ -35,6 +35,9 @@ bool finiteEdge(const Edge& e) {
          e.information.allFinite();
 }
 
+int olderEnd(const Edge& e) { return std::min(e.from, e.to); }
+int newerEnd(const Edge& e) { return std::max(e.from, e.to); }
+
 }  // namespace
 
 IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
@@ -82,35 +85,18 @@ int IncrementalGnc::addLoopClosure(const Edge& edge) {
   LoopClosure loop;
   loop.edge = edge;
   loop.edge.kind = EdgeKind::kLoopClosure;
-  const FactorMode mode =
-      options_.schedule == ScheduleKind::kNone ? FactorMode::kPlain : FactorMode::kRobust;
-  loop.factor = solver_.addFactor(edge.from, edge.to, edge.measurement, edge.information, mode);
+  loop.factor = solver_.addFactor(edge.from, edge.to, edge.measurement, edge.information, robustMode());
   loops_.push_back(loop);
   const int index = static_cast<int>(loops_.size()) - 1;
-  const int newer = std::max(edge.from, edge.to);
+  const int newer = newerEnd(edge);
   if (static_cast<int>(loops_by_newer_pose_.size()) <= newer) loops_by_newer_pose_.resize(newer + 1);
   loops_by_newer_pose_[newer].push_back(index);
-  findSupport(index);
   pending_.push_back(index);
   return index;
 }
 
-void IncrementalGnc::findSupport(int index) {
-  const int radius = options_.support_radius;
-  if (radius == 0) return;
-  LoopClosure& loop = loops_[index];
-  const int newer = std::max(loop.edge.from, loop.edge.to);
-  const int last = std::min(newer + radius, static_cast<int>(loops_by_newer_pose_.size()) - 1);
-  const auto pose = [this](int id) { return solver_.pose(id); };
-  for (int p = std::max(0, newer - radius); p <= last; ++p) {
-    for (int other : loops_by_newer_pose_[p]) {
-      if (other == index || !areNeighbours(loop.edge, loops_[other].edge, radius)) continue;
-      const double d = cycleDistance(dimension_, loop.edge, loops_[other].edge, pose);
-      if (!schedule_.isInlier(schedule_.distanceOf(d))) continue;
-      loop.supported = true;
-      loops_[other].supported = true;
-    }
-  }
+FactorMode IncrementalGnc::robustMode() const {
+  return options_.schedule == ScheduleKind::kNone ? FactorMode::kPlain : FactorMode::kRobust;
 }
 
 Poses IncrementalGnc::poses() const {
@@ -118,6 +104,10 @@ Poses IncrementalGnc::poses() const {
   out.reserve(numPoses());
   for (int i = 0; i < numPoses(); ++i) out.push_back(solver_.pose(i));
   return out;
+}
+
+double IncrementalGnc::distance(const LoopClosure& loop) const {
+  return schedule_.distanceOf(solver_.whitenedNorm(loop.factor));
 }
 
 void IncrementalGnc::refresh(LoopClosure* loop) {
@@ -133,14 +123,12 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
   const bool rejected_at_one = loop->override_mode == LoopOverride::kAuto &&
                                options_.schedule != ScheduleKind::kNone && !loop->graduation.graduating &&
                                loop->graduation.mu >= 1.0;
-  setSparsity(loop, rejected_at_one && loop->weight < dormantWeight(*loop),
-              rejected_at_one && loop->weight < options_.decoupled_weight);
+  setDormant(loop, rejected_at_one && loop->weight < options_.dormant_weight);
 }
 
-void IncrementalGnc::setSparsity(LoopClosure* loop, bool dormant, bool decoupled) {
+void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
   loop->dormant = dormant;
   solver_.setDormant(loop->factor, dormant);
-  solver_.setDecoupled(loop->factor, decoupled);
 }
 
 bool IncrementalGnc::staysDormant(const LoopClosure& loop) const {
@@ -151,11 +139,7 @@ bool IncrementalGnc::staysDormant(const LoopClosure& loop) const {
   const bool restarts_at_one = options_.schedule == ScheduleKind::kRisam
                                    ? g.mu_init >= 1.0
                                    : g.init_step >= ShapeFunction::kStepsToOne;
-  return restarts_at_one && solver_.weight(loop.factor) < dormantWeight(loop);
-}
-
-double IncrementalGnc::dormantWeight(const LoopClosure& loop) const {
-  return loop.supported ? options_.supported_dormant_weight : options_.dormant_weight;
+  return restarts_at_one && solver_.weight(loop.factor) < options_.dormant_weight;
 }
 
 void IncrementalGnc::classifyAll() {
@@ -166,15 +150,11 @@ void IncrementalGnc::applyOverride(LoopClosure* loop) {
   switch (loop->override_mode) {
     case LoopOverride::kForceInlier: solver_.setMode(loop->factor, FactorMode::kPlain); break;
     case LoopOverride::kForceOutlier: solver_.setMode(loop->factor, FactorMode::kDisabled); break;
-    case LoopOverride::kAuto:
-      solver_.setMode(loop->factor, options_.schedule == ScheduleKind::kNone
-                                        ? FactorMode::kPlain
-                                        : FactorMode::kRobust);
-      break;
+    case LoopOverride::kAuto: solver_.setMode(loop->factor, robustMode()); break;
   }
   loop->graduation.graduating = false;
   // Back in the linear system until the next classification says otherwise.
-  setSparsity(loop, false, false);
+  setDormant(loop, false);
 }
 
 void IncrementalGnc::setOverride(int index, LoopOverride mode) {
@@ -185,150 +165,241 @@ void IncrementalGnc::setOverride(int index, LoopOverride mode) {
   needs_restart_.push_back(index);
 }
 
-void IncrementalGnc::acceptConsistent(const std::vector<int>& graduating) {
-  for (int index : graduating) {
-    LoopClosure& loop = loops_[index];
-    if (!loop.graduation.graduating) continue;
-    const double m = schedule_.distanceOf(solver_.whitenedNorm(loop.factor));
-    if (m >= schedule_.thresholds().q25) continue;
-    acceptAsInlier(&loop);
-  }
-}
-
-void IncrementalGnc::acceptAsInlier(LoopClosure* loop) {
-  loop->graduation.mu = 1.0;
+void IncrementalGnc::finishAt(LoopClosure* loop, double mu) {
+  loop->graduation.mu = mu;
   loop->graduation.graduating = false;
-  solver_.setMu(loop->factor, 1.0);
+  solver_.setMu(loop->factor, mu);
 }
 
-IterationResult IncrementalGnc::iterateOnce(int first, UpdateStats* stats) {
-  const IterationResult r = solver_.iterate(first);
-  ++stats->iterations;
-  stats->factorizations += r.factorizations;
-  if (r.accepted) {
-    stats->max_mean_step = std::max(stats->max_mean_step, r.mean_step);
-  }
-  return r;
-}
-
-int IncrementalGnc::settle(int first, int max_iterations, double last_step, UpdateStats* stats) {
-  int done = 0;
-  while (done < max_iterations && last_step >= options_.convergence_step) {
-    const IterationResult r = iterateOnce(first, stats);
-    ++done;
-    if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
-    last_step = convergenceStep(r);
-  }
-  stats->converged = last_step < options_.convergence_step;
-  return done;
-}
+// ---------------------------------------------------------------- update()
 
 UpdateStats IncrementalGnc::update() {
   UpdateStats stats;
   if (pending_.empty() && needs_restart_.empty()) return stats;
   // Every update starts with a small trust region that grows only while the
-  // steps agree with the model (see GncOptions::restart_trust_region).
-  if (options_.restart_trust_region) solver_.setTrustRegionRadius(options_.trust_region_radius);
+  // steps agree with the model (see GncOptions::trust_region_radius).
+  solver_.resetTrustRegion();
+  UpdatePlan plan = judgeArrivals();
+  planWindow(&plan);
+  stats.first_variable = plan.first;
+  if (plan.moves) {
+    selectGraduating(&plan);
+    stats.graduated = static_cast<int>(plan.graduating.size());
+    const Poses window_before = windowPoses(plan);
+    runGncSteps(&plan, &stats);
+    settle(plan.first, maxSettleIterations(), plan.last_step, &stats);
+    refine(plan, window_before, &stats);
+  }
+  finish(plan, stats);
+  pending_.clear();
+  needs_restart_.clear();
+  total_iterations_ += stats.iterations;
+  total_gnc_steps_ += stats.gnc_steps;
+  return stats;
+}
 
-  // The oldest pose a new loop closure (or changed override) touches, and
-  // the free window: from that pose on, but reaching at most
-  // max_window_poses poses back from each loop closure's newer endpoint (the
-  // older endpoint of a long loop closure is then held fixed with the rest of
-  // the old map, see GncOptions::max_window_poses).
-  int oldest = numPoses(), first = numPoses();
-  auto reach = [&](const Edge& e) {
-    const int older = std::min(e.from, e.to), newer = std::max(e.from, e.to);
-    oldest = std::min(oldest, older);
-    first = std::min(first, options_.max_window_poses > 0
-                                ? std::max(older, newer + 1 - options_.max_window_poses)
-                                : older);
+IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals() {
+  UpdatePlan plan;
+  std::vector<int> far;
+  for (int index : pending_) {
+    LoopClosure& loop = loops_[index];
+    if (loop.override_mode != LoopOverride::kAuto || options_.schedule == ScheduleKind::kNone) {
+      plan.to_graduate.push_back(index);
+      continue;
+    }
+    schedule_.start(&loop.graduation);
+    const double m = distance(loop);
+    if (m < schedule_.thresholds().q25) {
+      // It already agrees with the estimate: accepted without graduating;
+      // the settle iterations take in the little it moves the estimate.
+      finishAt(&loop, 1.0);
+      plan.decided.push_back(index);
+      plan.accepted.push_back(index);
+    } else if (m >= schedule_.thresholds().q90) {
+      far.push_back(index);
+    } else {
+      plan.to_graduate.push_back(index);
+    }
+  }
+  if (!far.empty()) judgeFar(far, &plan);
+  return plan;
+}
+
+void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
+  // A confident outlier by its own covariance. After a long drift a true
+  // loop closure is one too, yet the poses between its endpoints may be
+  // uncertain enough to absorb it: its innovation says whether they are.
+  int first = numPoses();
+  std::vector<int> factors;
+  for (int index : far) {
+    first = std::min(first, olderEnd(loops_[index].edge));
+    factors.push_back(loops_[index].factor);
+  }
+  const std::vector<double> innovation = solver_.innovationNorms(factors, first);
+  for (size_t i = 0; i < far.size(); ++i) {
+    const int index = far[i];
+    LoopClosure& loop = loops_[index];
+    loop.innovation = innovation[i];
+    // A chi-square test on the squared innovation, whatever the distance
+    // convention of the kernel's schedule (the reference code's r-against-
+    // r^2-quantiles would let a 6-sigma innovation pass).
+    const bool plausible = innovation[i] * innovation[i] < schedule_.thresholds().q90;
+    const std::vector<int> partners = plausible ? std::vector<int>() : corroboratingLoops(index);
+    if (plausible || !partners.empty()) {
+      // Land it (with the rejected loop closures that agree with it): the
+      // whole cycle it closes is freed and every GNC step iterates until the
+      // correction has landed, so the less convex steps judge it there.
+      land(index, plan);
+      for (int partner : partners) land(partner, plan);
+    } else {
+      // It would bend the map further than the map's own consistency
+      // allows, and nothing corroborates it: pulling the map towards it
+      // could only fold it. Rejected at mu = 1, without a solve.
+      schedule_.startAtOne(&loop.graduation);
+      finishAt(&loop, 1.0);
+      plan->decided.push_back(index);
+    }
+  }
+}
+
+void IncrementalGnc::land(int index, UpdatePlan* plan) {
+  LoopClosure& loop = loops_[index];
+  loop.graduation.init_step = 0;
+  loop.graduation.mu_init = 0.0;
+  setDormant(&loop, false);
+  plan->to_graduate.push_back(index);
+  plan->cycles.push_back(index);
+}
+
+std::vector<int> IncrementalGnc::corroboratingLoops(int index) const {
+  // Rejected loop closures whose endpoints both lie within support_radius
+  // poses of this one's and that pass PCM's pairwise consistency test with
+  // it: a place seen again produces a run of such loop closures, an outlier
+  // rarely has a consistent neighbour.
+  std::vector<int> partners;
+  const int radius = options_.support_radius;
+  if (radius == 0) return partners;
+  const Edge& e = loops_[index].edge;
+  const auto pose = [this](int id) { return solver_.pose(id); };
+  const int last = std::min(newerEnd(e) + radius, static_cast<int>(loops_by_newer_pose_.size()) - 1);
+  for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p) {
+    for (int other : loops_by_newer_pose_[p]) {
+      const LoopClosure& candidate = loops_[other];
+      if (other == index || candidate.inlier || candidate.override_mode != LoopOverride::kAuto ||
+          candidate.graduation.graduating || !areNeighbours(e, candidate.edge, radius))
+        continue;
+      const double d = cycleDistance(dimension_, e, candidate.edge, pose);
+      if (d * d < schedule_.thresholds().q95) partners.push_back(other);
+    }
+  }
+  return partners;
+}
+
+void IncrementalGnc::planWindow(UpdatePlan* plan) const {
+  // The free poses: from the oldest endpoint of what changes on, but
+  // reaching at most max_window_poses back from a loop closure's newer
+  // endpoint -- except for a loop closure that needs its whole cycle to land
+  // (judgeArrivals), which frees everything from its older endpoint on.
+  plan->oldest = numPoses();
+  plan->first = numPoses();
+  auto reach = [&](const Edge& e, bool whole_cycle) {
+    plan->oldest = std::min(plan->oldest, olderEnd(e));
+    const bool bounded = options_.max_window_poses > 0 && !whole_cycle;
+    plan->first = std::min(plan->first, bounded ? std::max(olderEnd(e), newerEnd(e) + 1 - options_.max_window_poses)
+                                                : olderEnd(e));
   };
-  for (int index : pending_) reach(loops_[index].edge);
-  for (int index : needs_restart_) reach(loops_[index].edge);
-  if (!options_.local_window) first = 0;
-  stats.first_variable = first;
+  for (int index : plan->to_graduate)
+    reach(loops_[index].edge,
+          std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end());
+  for (int index : plan->accepted) reach(loops_[index].edge, false);
+  for (int index : needs_restart_) reach(loops_[index].edge, false);
+  if (!options_.local_window) plan->first = 0;
+  plan->moves = !plan->to_graduate.empty() || !needs_restart_.empty() || !plan->accepted.empty();
+}
 
-  // Select what graduates: the new loop closures, then the reset policy.
-  std::vector<int> graduating, still_dormant;
+void IncrementalGnc::selectGraduating(UpdatePlan* plan) {
   std::vector<char> selected(loops_.size(), 0);
+  for (int index : plan->decided) selected[index] = 1;
   auto select = [&](int index) {
     LoopClosure& loop = loops_[index];
     if (selected[index] || loop.override_mode != LoopOverride::kAuto) return;
     selected[index] = 1;
     if (staysDormant(loop)) {
-      still_dormant.push_back(index);
+      plan->still_dormant.push_back(index);
       return;
     }
-    setSparsity(&loop, false, false);
+    setDormant(&loop, false);
     schedule_.start(&loop.graduation);
-    if (loop.graduation.graduating) graduating.push_back(index);
+    if (loop.graduation.graduating) plan->graduating.push_back(index);
   };
-  std::vector<int> touched;
-  bool all_consistent = needs_restart_.empty();
-  for (int index : pending_) {
-    LoopClosure& loop = loops_[index];
-    if (options_.accept_consistent_on_arrival && loop.override_mode == LoopOverride::kAuto &&
-        options_.schedule != ScheduleKind::kNone &&
-        schedule_.distanceOf(solver_.whitenedNorm(loop.factor)) < schedule_.thresholds().q25) {
-      selected[index] = 1;
-      schedule_.start(&loop.graduation);
-      acceptAsInlier(&loop);
-      touched.push_back(index);
-      continue;
-    }
-    all_consistent = false;
-    select(index);
-  }
+  for (int index : plan->to_graduate) select(index);
   for (int index : needs_restart_) select(index);
-  if (options_.reset != ResetPolicy::kNone && !all_consistent) {
-    for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
-      const Edge& e = loops_[index].edge;
-      // A loop closure with both ends held fixed cannot move in this update.
-      if (options_.reset == ResetPolicy::kAll || std::max(e.from, e.to) >= std::max(oldest, first))
-        select(index);
-    }
-  }
-  touched.insert(touched.end(), graduating.begin(), graduating.end());
-  stats.graduated = static_cast<int>(graduating.size());
+  // Older decisions are revisited only where the estimate may move much: if
+  // every new loop closure already agreed with it, they stand.
+  const bool reset = options_.reset != ResetPolicy::kNone && (!plan->to_graduate.empty() || !needs_restart_.empty());
+  // A loop closure with both ends held fixed cannot move in this update.
+  const int reach = std::max(plan->oldest, plan->first);
+  if (reset)
+    for (int index = 0; index < static_cast<int>(loops_.size()); ++index)
+      if (options_.reset == ResetPolicy::kAll || newerEnd(loops_[index].edge) >= reach) select(index);
+  plan->graduated = plan->graduating;
+}
 
-  // Where the window starts from: the whole-graph refinement below is
-  // decided on how far the update moved it.
-  const bool may_refine = first > 0 && options_.global_refinement;
-  Poses window_before;
-  if (may_refine) {
-    window_before.reserve(numPoses() - first);
-    for (int i = first; i < numPoses(); ++i) window_before.push_back(solver_.pose(i));
-  }
+Poses IncrementalGnc::windowPoses(const UpdatePlan& plan) const {
+  Poses window;
+  if (!mayRefine(plan)) return window;
+  window.reserve(numPoses() - plan.first);
+  for (int i = plan.first; i < numPoses(); ++i) window.push_back(solver_.pose(i));
+  return window;
+}
 
-  // GNC steps: set mu for every graduating loop closure, then one iteration.
-  double last_step = std::numeric_limits<double>::infinity();
-  while (!graduating.empty() && stats.gnc_steps < options_.max_gnc_steps) {
+bool IncrementalGnc::mayRefine(const UpdatePlan& plan) const {
+  return plan.first > 0 && options_.global_refinement;
+}
+
+void IncrementalGnc::runGncSteps(UpdatePlan* plan, UpdateStats* stats) {
+  // Every step sets mu of each graduating loop closure from its schedule,
+  // then iterates while the steps are large: a large correction must land
+  // before the next, less convex, step judges it.
+  std::vector<int>& graduating = plan->graduating;
+  while (!graduating.empty() && stats->gnc_steps < options_.max_gnc_steps) {
     for (int index : graduating) {
       LoopClosure& loop = loops_[index];
-      const double r = solver_.whitenedNorm(loop.factor);
-      schedule_.advance(&loop.graduation, schedule_.distanceOf(r));
+      schedule_.advance(&loop.graduation, distance(loop));
       solver_.setMu(loop.factor, loop.graduation.mu);
     }
-    IterationResult r = iterateOnce(first, &stats);
-    for (int extra = 1; extra < options_.iterations_per_step && r.accepted &&
-                        r.mean_step >= options_.convergence_step;
+    IterationResult r = iterateOnce(plan->first, stats);
+    for (int extra = 1; extra < options_.max_iterations_per_step && r.accepted &&
+                        convergenceStep(r) >= options_.convergence_step;
          ++extra)
-      r = iterateOnce(first, &stats);
-    ++stats.gnc_steps;
-    if (r.accepted) last_step = convergenceStep(r);
+      r = iterateOnce(plan->first, stats);
+    ++stats->gnc_steps;
+    if (r.accepted) plan->last_step = convergenceStep(r);
     for (int index : graduating) schedule_.finishStep(&loops_[index].graduation);
-    if (options_.early_accept_consistent && r.accepted && !r.truncated &&
-        r.mean_step < options_.convergence_step)
-      acceptConsistent(graduating);
+    if (r.accepted && convergenceStep(r) < options_.convergence_step) acceptConsistent(graduating);
     graduating.erase(std::remove_if(graduating.begin(), graduating.end(),
                                     [this](int i) { return !loops_[i].graduation.graduating; }),
                      graduating.end());
   }
+}
 
-  const int max_settle = options_.schedule == ScheduleKind::kNone
-                             ? std::max(options_.max_settle_iterations, kMinPlainIterations)
-                             : options_.max_settle_iterations;
-  settle(first, max_settle, last_step, &stats);
+void IncrementalGnc::acceptConsistent(const std::vector<int>& graduating) {
+  // The estimate has settled: a graduating loop closure that is a confident
+  // inlier there keeps its weight whatever mu it reaches, so the remaining
+  // steps would not move it.
+  for (int index : graduating) {
+    LoopClosure& loop = loops_[index];
+    if (loop.graduation.graduating && distance(loop) < schedule_.thresholds().q25) finishAt(&loop, 1.0);
+  }
+}
+
+int IncrementalGnc::maxSettleIterations() const {
+  return options_.schedule == ScheduleKind::kNone
+             ? std::max(options_.max_settle_iterations, kMinPlainIterations)
+             : options_.max_settle_iterations;
+}
+
+void IncrementalGnc::refine(const UpdatePlan& plan, const Poses& window_before, UpdateStats* stats) {
   // The window held older poses fixed. If the update moved the estimate, let
   // the whole graph follow (the correction belongs to every pose, not only to
   // those in the window). "Moved" is judged as a whole-graph solve would be --
@@ -338,37 +409,54 @@ UpdateStats IncrementalGnc::update() {
   // whole-graph iterations every time. The displacement is net: an outlier
   // that pulled the window at a small mu and was then rejected moved it
   // there and back, which calls for no refinement.
-  if (first == 0) unrefined_step_ = 0.0;
-  if (may_refine)
-    for (int i = first; i < numPoses(); ++i)
-      unrefined_step_ += displacement(window_before[i - first], solver_.pose(i));
-  if (may_refine && unrefined_step_ / numPoses() >= options_.convergence_step) {
-    const int before = stats.iterations;
-    settle(0, max_settle, std::numeric_limits<double>::infinity(), &stats);
-    stats.refinement_iterations = stats.iterations - before;
-    unrefined_step_ = 0.0;
-  }
+  if (plan.first == 0) unrefined_step_ = 0.0;
+  if (!mayRefine(plan)) return;
+  for (int i = plan.first; i < numPoses(); ++i)
+    unrefined_step_ += displacement(window_before[i - plan.first], solver_.pose(i));
+  if (unrefined_step_ / numPoses() < options_.convergence_step) return;
+  const int before = stats->iterations;
+  settle(0, maxSettleIterations(), std::numeric_limits<double>::infinity(), stats);
+  stats->refinement_iterations = stats->iterations - before;
+  unrefined_step_ = 0.0;
+}
 
-  for (int index : touched) {
+void IncrementalGnc::finish(const UpdatePlan& plan, const UpdateStats& stats) {
+  // Decided and graduated loop closures adapt where their next graduation
+  // starts (if the estimate converged) and are classified.
+  auto adapt = [&](int index) {
     LoopClosure& loop = loops_[index];
     refresh(&loop);
     if (stats.converged) schedule_.adaptInitial(&loop.graduation, schedule_.distanceOf(loop.distance));
-  }
+  };
+  for (int index : plan.decided) adapt(index);
+  for (int index : plan.graduated) adapt(index);
   // Skipped as dormant: did the estimate move towards one of them?
-  for (int index : still_dormant) refresh(&loops_[index]);
+  for (int index : plan.still_dormant) refresh(&loops_[index]);
   // Not graduating but changed: schedule none, or an override.
   for (int index : pending_) refresh(&loops_[index]);
   for (int index : needs_restart_) refresh(&loops_[index]);
+}
 
-  pending_.clear();
-  needs_restart_.clear();
-  total_iterations_ += stats.iterations;
-  total_gnc_steps_ += stats.gnc_steps;
-  return stats;
+IterationResult IncrementalGnc::iterateOnce(int first, UpdateStats* stats) {
+  const IterationResult r = solver_.iterate(first);
+  ++stats->iterations;
+  return r;
+}
+
+void IncrementalGnc::settle(int first, int max_iterations, double last_step, UpdateStats* stats) {
+  int done = 0;
+  while (done < max_iterations && last_step >= options_.convergence_step) {
+    const IterationResult r = iterateOnce(first, stats);
+    ++done;
+    if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
+    last_step = convergenceStep(r);
+  }
+  stats->converged = last_step < options_.convergence_step;
 }
 
 UpdateStats IncrementalGnc::optimize(int max_iterations) {
   UpdateStats stats;
+  solver_.resetTrustRegion();
   settle(0, max_iterations, std::numeric_limits<double>::infinity(), &stats);
   classifyAll();
   total_iterations_ += stats.iterations;

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 
 #include <omp.h>
 
@@ -13,6 +14,15 @@ namespace agnc_pgo {
 namespace core {
 namespace {
 
+// Dogleg trust-region control (Nocedal & Wright, Alg. 4.1): a step whose
+// actual cost decrease is at least kGoodRatio of the model's prediction lets
+// the radius grow to kGrowth times the step; below kPoorRatio it shrinks to
+// kShrink times the step. A rejected step is retried inside the smaller
+// radius at most kMaxDampingAttempts times per iteration.
+constexpr double kGoodRatio = 0.75;
+constexpr double kPoorRatio = 0.25;
+constexpr double kGrowth = 3.0;
+constexpr double kShrink = 0.5;
 constexpr int kMaxDampingAttempts = 6;
 constexpr double kMinRadius = 1e-4;
 
@@ -116,6 +126,13 @@ double SparsePoseGraphSolver::totalCost() const {
   return cost;
 }
 
+double SparsePoseGraphSolver::windowCost(int first) {
+  first = std::max(0, std::min(first, numPoses()));
+  if (numPoses() == first) return 0.0;
+  prepare(first);
+  return windowCost();
+}
+
 double SparsePoseGraphSolver::windowCost() const {
   double cost = 0.0, residual[6];
   for (const FactorSlot& slot : slots_) {
@@ -143,7 +160,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     const int va = f.a == kAnchor ? -1 : var(f.a);
     const int vb = var(f.b);
     if (va < 0 && vb < 0) continue;
-    const bool coupled = va >= 0 && vb >= 0 && !f.decoupled;
+    const bool coupled = va >= 0 && vb >= 0;
     if (coupled) pattern.emplace_back(std::max(va, vb), std::min(va, vb), 1.0);
     slots_.push_back(FactorSlot{k, va, vb, coupled, 0, 0, 0, 0, -1, 0});
   }
@@ -243,7 +260,7 @@ double SparsePoseGraphSolver::linearize() {
   Jacobian ja, jb;
   for (const FactorSlot& s : slots_) {
     const Factor& f = factors_[s.factor];
-    if (f.mode == FactorMode::kDisabled) continue;
+    if (f.mode == FactorMode::kDisabled || f.excluded) continue;
     evaluate(f, r.data(), s.ia >= 0 ? ja.data() : nullptr, s.ib >= 0 ? jb.data() : nullptr);
     double w = 1.0;
     if (f.mode == FactorMode::kRobust) {
@@ -273,14 +290,97 @@ double SparsePoseGraphSolver::linearize() {
   return cost;
 }
 
+void SparsePoseGraphSolver::prepare(int first) {
+  if (first != structure_first_ || numPoses() != structure_poses_ ||
+      numFactors() != structure_factors_ || structure_version_ != built_version_)
+    buildStructure(first);
+}
+
+bool SparsePoseGraphSolver::factorize() {
+  if (supernodal_) {
+    keepCholmodSerial();
+    supernodal_cholesky_.factorize(hessian_);
+    return supernodal_cholesky_.info() == Eigen::Success;
+  }
+  simplicial_.factorize(hessian_);
+  return simplicial_.info() == Eigen::Success;
+}
+
+Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
+  if (supernodal_) {
+    keepCholmodSerial();
+    return supernodal_cholesky_.solve(rhs);
+  }
+  return simplicial_.solve(rhs);
+}
+
+std::vector<double> SparsePoseGraphSolver::innovationNorms(const std::vector<int>& factors, int first) {
+  std::vector<double> norms;
+  norms.reserve(factors.size());
+  for (int k : factors) norms.push_back(whitenedNorm(k));
+  first = std::max(0, std::min(first, numPoses()));
+  if (numPoses() - first == 0 || factors.empty()) return norms;
+  prepare(first);
+  for (int k : factors) factors_[k].excluded = true;
+  if (tangent_ == 3) linearize<3>();
+  else linearize<6>();
+  // The window's own consistency calibrates the stated covariances (the
+  // benchmark graphs state noise up to 40 times the real variance, which
+  // would make every pair of poses look uncertain enough to absorb anything).
+  const double scale = std::sqrt(windowVarianceFactor());
+  for (int k : factors) factors_[k].excluded = false;
+  if (!factorize()) return norms;
+
+  const int d = tangent_;
+  const long n = static_cast<long>(numPoses() - first) * d;
+  double residual[6], jac_a[36], jac_b[36];
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const Factor& f = factors_[factors[i]];
+    const int va = f.a == kAnchor || f.a < first ? -1 : position_[f.a - first];
+    const int vb = f.b < first ? -1 : position_[f.b - first];
+    if (va < 0 && vb < 0) continue;
+    evaluate(f, residual, jac_a, jac_b);
+    // J^T as n x d (whitened Jacobian rows of the factor, tangent columns of the window).
+    Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n, d);
+    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+    if (va >= 0) jt.block(static_cast<long>(va) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_a, d, d).transpose();
+    if (vb >= 0) jt.block(static_cast<long>(vb) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_b, d, d).transpose();
+    const Eigen::MatrixXd x = solve(jt);
+    if (!x.allFinite()) continue;
+    const Eigen::MatrixXd innovation = Eigen::MatrixXd::Identity(d, d) + jt.transpose() * x;
+    const Eigen::Map<const Eigen::VectorXd> r(residual, d);
+    const double squared = r.dot(innovation.ldlt().solve(r));
+    if (std::isfinite(squared) && squared >= 0.0) norms[i] = std::sqrt(squared) / scale;
+  }
+  return norms;
+}
+
+double SparsePoseGraphSolver::windowVarianceFactor() const {
+  const double dof = tangent_;
+  double chi2 = dof, redundancy = dof, residual[6];
+  for (const FactorSlot& slot : slots_) {
+    const Factor& f = factors_[slot.factor];
+    if (f.mode == FactorMode::kDisabled || f.excluded) continue;
+    evaluate(f, residual, nullptr, nullptr);
+    const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
+    double w = 1.0;
+    if (f.mode == FactorMode::kRobust) {
+      double rho[3];
+      f.loss.Evaluate(s, rho);
+      w = rho[1];
+      redundancy += w * dof;
+    }
+    chi2 += w * s;
+  }
+  return chi2 / redundancy;
+}
+
 IterationResult SparsePoseGraphSolver::iterate(int first) {
   IterationResult result;
   first = std::max(0, std::min(first, numPoses()));
   const int nv = numPoses() - first;
   if (nv == 0) return result;
-  if (first != structure_first_ || numPoses() != structure_poses_ ||
-      numFactors() != structure_factors_ || structure_version_ != built_version_)
-    buildStructure(first);
+  prepare(first);
 
   const double cost = tangent_ == 3 ? linearize<3>() : linearize<6>();
   result.cost_before = cost;
@@ -288,18 +388,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
 
   saved_.assign(blocks_.begin() + first, blocks_.end());
   Eigen::VectorXd gauss_newton;
-  bool factorized = false;
-  if (supernodal_) {
-    keepCholmodSerial();
-    supernodal_cholesky_.factorize(hessian_);
-    factorized = supernodal_cholesky_.info() == Eigen::Success;
-    if (factorized) gauss_newton = supernodal_cholesky_.solve(-gradient_);
-  } else {
-    simplicial_.factorize(hessian_);
-    factorized = simplicial_.info() == Eigen::Success;
-    if (factorized) gauss_newton = simplicial_.solve(-gradient_);
-  }
-  ++result.factorizations;
+  if (factorize()) gauss_newton = solve(-gradient_);
   if (gauss_newton.size() == 0 || !gauss_newton.allFinite()) {
     // Singular system: fall back to steepest descent inside the trust region.
     gauss_newton = Eigen::VectorXd::Constant(gradient_.size(), std::numeric_limits<double>::infinity());
@@ -343,8 +432,10 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
     // about the model, so the radius is left alone there.
     const bool meaningful = predicted > 1e-10 * std::max(1.0, std::abs(cost));
     const double ratio = predicted > 0 ? actual / predicted : -1.0;
-    if (meaningful && ratio >= 0.75) radius_ = std::min(max_radius_, std::max(radius_, 3.0 * step_norm));
-    else if (meaningful && ratio < 0.25) radius_ = std::max(kMinRadius, 0.5 * std::min(radius_, step_norm));
+    if (meaningful && ratio >= kGoodRatio)
+      radius_ = std::min(max_radius_, std::max(radius_, kGrowth * step_norm));
+    else if (meaningful && ratio < kPoorRatio)
+      radius_ = std::max(kMinRadius, kShrink * std::min(radius_, step_norm));
     if (accepted) return result;
     if (!meaningful) return result;  // converged: nothing left to gain
   }

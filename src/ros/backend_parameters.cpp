@@ -134,16 +134,11 @@ BackendParameters readParameters(const ros::NodeHandle& nh) {
   get(nh, "gnc/max_window_poses", &p.gnc.max_window_poses, "an integer");
   get(nh, "gnc/max_gnc_steps", &p.gnc.max_gnc_steps, "an integer");
   get(nh, "gnc/global_refinement", &p.gnc.global_refinement, "a bool");
-  get(nh, "gnc/early_accept_consistent", &p.gnc.early_accept_consistent, "a bool");
-  get(nh, "gnc/accept_consistent_on_arrival", &p.gnc.accept_consistent_on_arrival, "a bool");
-  get(nh, "gnc/iterations_per_step", &p.gnc.iterations_per_step, "an integer");
+  get(nh, "gnc/max_iterations_per_step", &p.gnc.max_iterations_per_step, "an integer");
   get(nh, "gnc/trust_region", &p.gnc.trust_region, "a bool");
   getDouble(nh, "gnc/trust_region_radius", &p.gnc.trust_region_radius);
   getDouble(nh, "gnc/max_trust_region_radius", &p.gnc.max_trust_region_radius);
-  get(nh, "gnc/restart_trust_region", &p.gnc.restart_trust_region, "a bool");
   getDouble(nh, "gnc/dormant_weight", &p.gnc.dormant_weight);
-  getDouble(nh, "gnc/decoupled_weight", &p.gnc.decoupled_weight);
-  getDouble(nh, "gnc/supported_dormant_weight", &p.gnc.supported_dormant_weight);
   get(nh, "gnc/support_radius", &p.gnc.support_radius, "an integer");
   get(nh, "optimize_iterations", &p.optimize_iterations, "an integer");
 
@@ -177,12 +172,9 @@ std::string describe(const BackendParameters& p) {
       << " (at most " << p.gnc.max_window_poses << " poses, 0: unbounded)"
       << ", global_refinement " << (p.gnc.global_refinement ? "true" : "false")
       << ", trust_region " << (p.gnc.trust_region ? "true" : "false") << " (radius "
-      << p.gnc.trust_region_radius << (p.gnc.restart_trust_region ? ", restarted per update" : ", carried over")
-      << ", max " << p.gnc.max_trust_region_radius << ")"
-      << ", accept_consistent_on_arrival " << (p.gnc.accept_consistent_on_arrival ? "true" : "false")
-      << ", dormant_weight " << p.gnc.dormant_weight << " (supported " << p.gnc.supported_dormant_weight
-      << ", support_radius " << p.gnc.support_radius << " poses), decoupled_weight " << p.gnc.decoupled_weight
-      << ", max_settle_iterations " << p.gnc.max_settle_iterations << ", convergence_step "
+      << p.gnc.trust_region_radius << " per update, max " << p.gnc.max_trust_region_radius << ")"
+      << ", max_iterations_per_step " << p.gnc.max_iterations_per_step << ", dormant_weight "
+      << p.gnc.dormant_weight << ", support_radius " << p.gnc.support_radius << " poses, max_settle_iterations " << p.gnc.max_settle_iterations << ", convergence_step "
       << p.gnc.convergence_step << ", max_gnc_steps " << p.gnc.max_gnc_steps << "\n"
       << "  tf_rate " << p.tf_rate << " Hz (future-dated " << p.tf_future_tolerance << " s), visualization_rate "
       << p.visualization_rate << " Hz, status_rate " << p.status_rate << " Hz, publish_pose_graph "

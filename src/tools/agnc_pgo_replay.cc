@@ -31,11 +31,9 @@ const char* kUsage =
     "                       [--schedule agnc|agnc-fixed|risam|none] [--ground-truth GT.g2o]\n"
     "                       [--output DIR] [--quiet]\n"
     "                       [--distance reference|squared] [--reset none|window|all]\n"
-    "                       [--full-window] [--max-window POSES] [--no-global-refinement] [--settle N] [--iterations-per-step N]\n"
-    "                       [--no-trust-region] [--trust-region-radius R] [--max-trust-region-radius R]\n"
-    "                       [--carry-trust-region] [--no-arrival-accept] [--dormant-weight W]\n"
-    "                       [--decoupled-weight W] [--supported-dormant-weight W] [--support-radius POSES]\n"
-    "                       [--reference-alpha]\n";
+    "                       [--full-window] [--max-window POSES] [--no-global-refinement] [--settle N]\n"
+    "                       [--iterations-per-step N] [--no-trust-region] [--trust-region-radius R] [--max-trust-region-radius R]\n"
+    "                       [--dormant-weight W] [--support-radius POSES] [--reference-alpha]\n";
 
 struct Arguments {
   std::string input, ground_truth, output;
@@ -77,14 +75,10 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--no-trust-region") a.gnc.trust_region = false;
     else if (flag == "--trust-region-radius") a.gnc.trust_region_radius = parseNumber(flag, value());
     else if (flag == "--max-trust-region-radius") a.gnc.max_trust_region_radius = parseNumber(flag, value());
-    else if (flag == "--iterations-per-step") a.gnc.iterations_per_step = static_cast<int>(parseNumber(flag, value()));
+    else if (flag == "--iterations-per-step") a.gnc.max_iterations_per_step = static_cast<int>(parseNumber(flag, value()));
     else if (flag == "--reference-alpha") a.gnc.reference_alpha_direction = true;
-    else if (flag == "--carry-trust-region") a.gnc.restart_trust_region = false;
-    else if (flag == "--no-arrival-accept") a.gnc.accept_consistent_on_arrival = false;
-    else if (flag == "--dormant-weight") a.gnc.dormant_weight = parseNumber(flag, value());
-    else if (flag == "--decoupled-weight") a.gnc.decoupled_weight = parseNumber(flag, value());
-    else if (flag == "--supported-dormant-weight") a.gnc.supported_dormant_weight = parseNumber(flag, value());
     else if (flag == "--support-radius") a.gnc.support_radius = static_cast<int>(parseNumber(flag, value()));
+    else if (flag == "--dormant-weight") a.gnc.dormant_weight = parseNumber(flag, value());
     else if (flag == "--help" || flag == "-h") {
       std::cout << kUsage;
       std::exit(0);
@@ -227,11 +221,11 @@ int main(int argc, char** argv) {
       writeG2o(resultGraph(log, result), (dir / "estimate.g2o").string());
       writeTumTrajectory(result.estimate, (dir / "trajectory.tum").string());
       std::ofstream csv(dir / "loop_closures.csv");
-      csv << "from,to,outlier,mu,weight,distance,inlier,supported\n" << std::setprecision(10);
+      csv << "from,to,outlier,mu,weight,distance,inlier,innovation\n" << std::setprecision(10);
       for (const LoopClosureResult& l : result.loop_closures)
         csv << l.edge.from << ',' << l.edge.to << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << l.mu << ','
             << l.weight << ',' << l.distance << ',' << (l.inlier ? 1 : 0) << ','
-            << (l.supported ? 1 : 0) << '\n';
+            << l.innovation << '\n';
       std::ofstream latency(dir / "latency.csv");
       latency << "poses,update_ms,free_poses,iterations,refinement_iterations,gnc_steps,graduated\n";
       for (size_t i = 0; i < result.loop_update_ms.size(); ++i) {

@@ -36,6 +36,9 @@ class GraduationSchedule {
   // reached mu = 1 (so a new loop closure costs 5 AGNC / 6 riSAM solves).
   void finishStep(GraduationState* state) const;
 
+  // Makes every later (re)start begin at mu = 1 (a confident outlier).
+  void startAtOne(GraduationState* state) const;
+
   // After convergence: riSAM raises/lowers mu_init, AGNC sets init_step to
   // 3 (confident outlier) or 0 (confident inlier).
   void adaptInitial(GraduationState* state, double distance) const;

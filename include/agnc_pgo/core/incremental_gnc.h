@@ -11,11 +11,11 @@
 // The engine is deterministic for a given input and options.
 #pragma once
 
+#include <limits>
 #include <vector>
 
 #include "agnc_pgo/core/gnc_options.h"
 #include "agnc_pgo/core/graduation_schedule.h"
-#include "agnc_pgo/core/metrics.h"
 #include "agnc_pgo/core/pose_graph.h"
 #include "agnc_pgo/core/sparse_pose_graph_solver.h"
 
@@ -30,10 +30,12 @@ struct LoopClosure {
   int factor = -1;            // the solver's factor id
   GraduationState graduation;
   double distance = 0.0;      // last whitened residual norm r
+  // Its innovation on arrival (SparsePoseGraphSolver::innovationNorms),
+  // computed for a loop closure beyond q(0.9) by its own covariance; 0 otherwise.
+  double innovation = 0.0;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (distance < q(0.95) under the convention)
   bool dormant = false;       // out of the linear system (see GncOptions::dormant_weight)
-  bool supported = false;     // agrees with a neighbouring loop closure (GncOptions::support_radius)
   LoopOverride override_mode = LoopOverride::kAuto;
 };
 
@@ -41,11 +43,9 @@ struct UpdateStats {
   int gnc_steps = 0;       // steps with at least one graduating loop closure
   int iterations = 0;      // Gauss-Newton iterations (= solves)
   int refinement_iterations = 0;  // of which on the whole graph after the window
-  int factorizations = 0;  // numeric factorisations (>= iterations when damping kicked in)
   int graduated = 0;       // loop closures that graduated (new + reset)
   int first_variable = 0;  // oldest pose that was free in this update
   bool converged = false;  // mean step per pose below options.convergence_step at the end
-  double max_mean_step = 0.0;  // largest mean tangent step per free pose of any iteration
 };
 
 class IncrementalGnc {
@@ -97,21 +97,49 @@ class IncrementalGnc {
   long totalGncSteps() const { return total_gnc_steps_; }
 
  private:
+  // What update() decided and which poses are free (see update()).
+  struct UpdatePlan {
+    int first = 0;               // oldest free pose
+    int oldest = 0;              // oldest endpoint of what changed
+    std::vector<int> decided;    // new loop closures accepted or rejected on arrival
+    std::vector<int> accepted;   // ... of which accepted
+    std::vector<int> to_graduate;  // new loop closures that graduate
+    std::vector<int> cycles;     // ... of which need their whole cycle free to land
+    std::vector<int> graduating;  // all that graduate now (new + reset); shrinks as they finish
+    std::vector<int> graduated;  // all that started graduating in this update
+    std::vector<int> still_dormant;  // reset, but left out as dormant
+    bool moves = false;          // something will pull the estimate
+    double last_step = std::numeric_limits<double>::infinity();
+  };
+
+  // The steps of update(), in order.
+  UpdatePlan judgeArrivals();
+  void judgeFar(const std::vector<int>& far, UpdatePlan* plan);
+  void land(int index, UpdatePlan* plan);
+  std::vector<int> corroboratingLoops(int index) const;
+  void planWindow(UpdatePlan* plan) const;
+  void selectGraduating(UpdatePlan* plan);
+  void runGncSteps(UpdatePlan* plan, UpdateStats* stats);
+  void refine(const UpdatePlan& plan, const Poses& window_before, UpdateStats* stats);
+  void finish(const UpdatePlan& plan, const UpdateStats& stats);
+
   void validateEdge(const Edge& edge, bool allow_new_pose) const;
+  FactorMode robustMode() const;
+  // The loop closure's distance under the configured convention, now.
+  double distance(const LoopClosure& loop) const;
   void refresh(LoopClosure* loop);
   void applyOverride(LoopClosure* loop);
-  // How a loop closure sits in the linear system: dormant (out of it) or
-  // decoupled (no off-diagonal block); both false = fully in.
-  void setSparsity(LoopClosure* loop, bool dormant, bool decoupled);
+  void setDormant(LoopClosure* loop, bool dormant);
   bool staysDormant(const LoopClosure& loop) const;
-  double dormantWeight(const LoopClosure& loop) const;
-  // Marks the loop closure and every neighbour it agrees with as supported.
-  void findSupport(int index);
   void acceptConsistent(const std::vector<int>& graduating);
-  void acceptAsInlier(LoopClosure* loop);  // mu = 1, graduation over
-  // One solver iteration, counted into stats (iterations, steps).
+  void finishAt(LoopClosure* loop, double mu);  // graduation over at this mu
+  bool mayRefine(const UpdatePlan& plan) const;
+  Poses windowPoses(const UpdatePlan& plan) const;
+  int maxSettleIterations() const;
   IterationResult iterateOnce(int first, UpdateStats* stats);
-  int settle(int first_variable, int max_iterations, double last_step, UpdateStats* stats);
+  // Iterates until the mean step falls below convergence_step (at most
+  // max_iterations); sets stats->converged.
+  void settle(int first_variable, int max_iterations, double last_step, UpdateStats* stats);
 
   int dimension_;
   GncOptions options_;

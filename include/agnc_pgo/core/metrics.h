@@ -24,7 +24,6 @@ ClassificationCounts classify(const std::vector<bool>& is_outlier, const std::ve
 // Rigid (no scale) least-squares alignment of `estimate` onto `reference`
 // positions (Umeyama). Returns the RMSE of position error after alignment.
 // Both must have the same length (throws std::invalid_argument otherwise).
-using Poses = std::vector<Pose, Eigen::aligned_allocator<Pose>>;
 double absoluteTrajectoryError(const Poses& estimate, const Poses& reference, int dimension);
 
 // RMSE of the translational relative-pose error between consecutive poses.

@@ -4,6 +4,8 @@
 // the solver keeps its own minimal parameter blocks.
 #pragma once
 
+#include <vector>
+
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -25,6 +27,8 @@ struct Pose {
 
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
+
+using Poses = std::vector<Pose, Eigen::aligned_allocator<Pose>>;
 
 // Wraps an angle to (-pi, pi].
 double wrapAngle(double angle);

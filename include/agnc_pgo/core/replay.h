@@ -26,7 +26,7 @@ struct LoopClosureResult {
   double weight = 0;     // final kernel weight
   double distance = 0;   // final whitened residual norm r
   bool inlier = false;   // final classification
-  bool supported = false;  // agrees with a neighbouring loop closure
+  double innovation = 0;  // LoopClosure::innovation
 };
 
 struct ReplayResult {

@@ -21,6 +21,7 @@
 // disabled.
 #pragma once
 
+#include <limits>
 #include <memory>
 #include <vector>
 
@@ -43,7 +44,6 @@ struct IterationResult {
   double cost_before = 0;  // robust cost of the window's factors before the step
   double cost_after = 0;
   double mean_step = 0;    // mean tangent-step norm per variable pose
-  int factorizations = 0;  // numeric factorisations (1 unless damping was needed)
   bool accepted = false;   // false: no step reduced the cost; the estimate is unchanged
   bool truncated = false;  // the step was cut short by the trust region (not a full Gauss-Newton step)
 };
@@ -84,16 +84,6 @@ class SparsePoseGraphSolver {
     factors_[factor].dormant = dormant;
   }
   bool dormant(int factor) const { return factors_[factor].dormant; }
-  // A decoupled factor stays in the cost, the gradient and the diagonal
-  // blocks of the Hessian, but its off-diagonal block is left out: for a
-  // rejected loop closure (weight << 1) that block is negligible, yet it is
-  // what couples two distant parts of the graph and multiplies the fill-in.
-  // (Dropping it keeps the Hessian positive semi-definite.)
-  void setDecoupled(int factor, bool decoupled) {
-    if (factors_[factor].decoupled != decoupled) ++structure_version_;
-    factors_[factor].decoupled = decoupled;
-  }
-  bool decoupled(int factor) const { return factors_[factor].decoupled; }
   FactorMode mode(int factor) const { return factors_[factor].mode; }
   // The whitened residual norm r = |S e| at the current estimate.
   double whitenedNorm(int factor) const;
@@ -106,17 +96,36 @@ class SparsePoseGraphSolver {
   IterationResult iterate(int first_variable);
 
   // Dogleg trust region (persisting across iterations), radius in the
-  // tangent-space norm of the whole step. Off: plain Gauss-Newton.
+  // tangent-space norm of the whole step, at most max_radius. Off: plain
+  // Gauss-Newton.
   void setTrustRegion(bool enabled, double initial_radius, double max_radius) {
     trust_region_ = enabled;
-    radius_ = initial_radius;
+    initial_radius_ = initial_radius;
     max_radius_ = max_radius;
+    resetTrustRegion();
   }
+  // The next iteration starts again from the initial radius.
+  void resetTrustRegion() { radius_ = initial_radius_; }
   double trustRegionRadius() const { return radius_; }
-  void setTrustRegionRadius(double radius) { radius_ = radius; }
 
   // Robust cost over all factors (0.5 * sum rho).
   double totalCost() const;
+  // Robust cost of the factors that touch a pose >= first_variable.
+  double windowCost(int first_variable);
+
+  // The innovation of each given factor against the window (poses >=
+  // first_variable free, older ones fixed) without the given factors: the
+  // Mahalanobis distance sqrt(r^T (I + J H^-1 J^T)^-1 r) of its whitened
+  // residual r, where J is its whitened Jacobian and H the Gauss-Newton
+  // Hessian of the window (J H^-1 J^T: the relative covariance of its
+  // endpoints, whitened by its information). Its square is, to first order,
+  // how much the window's optimal cost rises when the factor is added: the
+  // data-association test of iSAM (Kaess & Dellaert) and PCM. It is divided
+  // by the square root of the window's variance factor
+  // (windowVarianceFactor()), so it does not depend on how well the stated
+  // covariances are scaled. A factor with no free endpoint keeps its
+  // whitened norm; so does every factor when H is singular.
+  std::vector<double> innovationNorms(const std::vector<int>& factors, int first_variable);
 
  private:
   struct Factor {
@@ -125,13 +134,13 @@ class SparsePoseGraphSolver {
     SigLoss loss;
     FactorMode mode;
     bool dormant = false;
-    bool decoupled = false;
+    bool excluded = false;  // left out of linearize() (innovationNorms), structure unchanged
   };
   // Where a window factor's blocks live in the sparse matrix.
   struct FactorSlot {
     int factor;
     int ia, ib;               // block row in the permuted Hessian, or -1 (fixed)
-    bool coupled;             // has an off-diagonal block: both are variables, factor not decoupled
+    bool coupled;             // has an off-diagonal block: both endpoints are variables
     long base_aa, stride_aa;  // (ia, ia)
     long base_bb, stride_bb;  // (ib, ib)
     long base_ab, stride_ab;  // (min, max) when coupled
@@ -143,8 +152,18 @@ class SparsePoseGraphSolver {
   template <int D>
   double linearize();
   bool takeStep(int first, const Eigen::VectorXd& delta, double cost, IterationResult* result);
+  // Ensures the cached structure is that of the window starting at `first`.
+  void prepare(int first);
+  // Factorises hessian_; false if it is not positive definite.
+  bool factorize();
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs);
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
+  // A posteriori variance of unit weight of the window: its IRLS-weighted
+  // chi2 over its redundancy (the kernel weights of its robust factors, one
+  // factor dimension each), with the stated covariances as a prior worth one
+  // factor, so a window without loop closures keeps a factor of 1.
+  double windowVarianceFactor() const;
   void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;
   const double* blockOf(int id) const { return id == kAnchor ? anchor_.data() : blocks_[id].data(); }
 
@@ -172,6 +191,7 @@ class SparsePoseGraphSolver {
   Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> supernodal_cholesky_;
   std::vector<PoseBlock> saved_;
   bool trust_region_ = true;
+  double initial_radius_ = 1.0;
   double radius_ = 1.0;
   double max_radius_ = 1e3;
 };
