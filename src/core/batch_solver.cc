@@ -1,6 +1,7 @@
 #include "agnc_pgo/core/batch_solver.h"
 
 #include <chrono>
+#include <limits>
 #include <memory>
 #include <stdexcept>
 #include <vector>
@@ -118,8 +119,16 @@ GlobalBatchResult optimizeBatchGlobal(PoseGraph* graph, const BatchOptions& opti
   const auto started = std::chrono::steady_clock::now();
   GlobalInitializationOptions init_options;
   init_options.skip_outliers = options.skip_outliers;
-  const PoseVector global = globalInitialization(*graph, init_options);
-  run(BatchStart::kGlobalInitialization, global, seconds(started));
+  try {
+    const PoseVector global = globalInitialization(*graph, init_options);
+    run(BatchStart::kGlobalInitialization, global, seconds(started));
+  } catch (const std::exception& e) {
+    BatchStartResult failed;
+    failed.start = BatchStart::kGlobalInitialization;
+    failed.chi2 = std::numeric_limits<double>::quiet_NaN();
+    failed.error = e.what();
+    result.starts.push_back(failed);
+  }
   if (ground_truth) run(BatchStart::kGroundTruth, groundTruthOnGauge(*graph, *ground_truth), 0.0);
   graph->poses = best_poses;
   return result;

@@ -180,7 +180,7 @@ int main(int argc, char** argv) {
     for (const BatchStartResult& s : reference.starts) {
       const char* separator = &s == &reference.starts.front() ? "" : ", ";
       start_json << separator << '"' << toString(s.start) << "\": " << jsonNumber(s.chi2);
-      start_text << separator << toString(s.start) << ' ' << jsonNumber(s.chi2);
+      start_text << separator << toString(s.start) << ' ' << (s.error.empty() ? jsonNumber(s.chi2) : s.error);
     }
 
     const double ate = ground_truth ? absoluteTrajectoryError(result.estimate, ground_truth->poses, log.dimension)

@@ -258,6 +258,19 @@ TEST(OptimizeBatchGlobal, GroundTruthStartIsMovedOntoTheGauge) {
   EXPECT_THROW(optimizeBatchGlobal(&a, BatchOptions(), &too_short), std::invalid_argument);
 }
 
+TEST(OptimizeBatchGlobal, AGlobalInitialisationThatFailsLeavesTheOtherStartsToDecide) {
+  GeneratedGraph g = generate(2, 2, 0.0);
+  g.graph.poses.push_back(Pose::identity());  // pose 80 has no edge
+  PoseGraph plain = g.graph;
+  const double odometry = 2.0 * optimizeBatch(&plain).final_cost;
+  const GlobalBatchResult r = optimizeBatchGlobal(&g.graph);
+  ASSERT_EQ(r.starts.size(), 2u);
+  EXPECT_TRUE(std::isnan(r.starts[1].chi2));
+  EXPECT_NE(r.starts[1].error.find("pose 80 is not connected"), std::string::npos) << r.starts[1].error;
+  EXPECT_EQ(r.best, BatchStart::kOdometry);
+  EXPECT_DOUBLE_EQ(r.chi2, odometry);
+}
+
 // ---------------------------------------------------------------- shared datasets
 
 struct ReferenceCase {

@@ -38,9 +38,10 @@ std::string toString(BatchStart start);  // "odometry", "global", "ground_truth"
 
 struct BatchStartResult {
   BatchStart start = BatchStart::kOdometry;
-  double chi2 = 0;                 // 2 * final Ceres cost = sum r^T I r
+  double chi2 = 0;                 // 2 * final Ceres cost = sum r^T I r; NaN if the start failed
   double initialization_s = 0;     // time to compute the start (0 for the odometry)
   BatchResult batch;
+  std::string error;               // why the start could not be computed; empty if it ran
 };
 
 struct GlobalBatchResult {
@@ -55,7 +56,9 @@ struct GlobalBatchResult {
 // the odometry alone can end in a local minimum when the odometry has drifted
 // far (tens of degrees); the global initialisation does not depend on it.
 // Near-ties (relative 1e-9) go to the earlier start, so an unambiguous
-// optimum is reported as reached from the odometry.
+// optimum is reported as reached from the odometry. A global initialisation
+// that cannot be computed (a pose not connected to the gauge) leaves its
+// start with an error and the others decide.
 GlobalBatchResult optimizeBatchGlobal(PoseGraph* graph, const BatchOptions& options = BatchOptions(),
                                       const std::vector<Pose, Eigen::aligned_allocator<Pose>>* ground_truth =
                                           nullptr);
