@@ -1,10 +1,14 @@
 #include "agnc_pgo/core/batch_solver.h"
 
+#include <chrono>
+#include <limits>
 #include <memory>
+#include <stdexcept>
 #include <vector>
 
 #include <ceres/ceres.h>
 
+#include "agnc_pgo/core/global_initialization.h"
 #include "agnc_pgo/core/pose_manifolds.h"
 
 namespace agnc_pgo {
@@ -48,6 +52,85 @@ BatchResult optimizeBatch(PoseGraph* graph, const BatchOptions& options) {
   result.final_cost = summary.final_cost;
   result.iterations = static_cast<int>(summary.iterations.size());
   result.converged = summary.termination_type == ceres::CONVERGENCE;
+  return result;
+}
+
+std::string toString(BatchStart start) {
+  switch (start) {
+    case BatchStart::kOdometry: return "odometry";
+    case BatchStart::kGlobalInitialization: return "global";
+    case BatchStart::kGroundTruth: return "ground_truth";
+  }
+  return "unknown";
+}
+
+const BatchStartResult& GlobalBatchResult::bestStart() const {
+  for (const BatchStartResult& s : starts)
+    if (s.start == best) return s;
+  throw std::logic_error("GlobalBatchResult: no result for the best start");
+}
+
+namespace {
+
+using PoseVector = std::vector<Pose, Eigen::aligned_allocator<Pose>>;
+
+double seconds(std::chrono::steady_clock::time_point since) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - since).count();
+}
+
+// The ground truth moved rigidly so that the graph's gauge pose keeps its
+// value: Levenberg-Marquardt holds that pose constant.
+PoseVector groundTruthOnGauge(const PoseGraph& graph, const PoseVector& ground_truth) {
+  if (ground_truth.size() != graph.poses.size())
+    throw std::invalid_argument("optimizeBatchGlobal: the ground truth has " + std::to_string(ground_truth.size()) +
+                                " poses, the graph " + std::to_string(graph.poses.size()));
+  const int gauge = graph.fixed.empty() ? 0 : graph.fixed.front();
+  const Pose offset = graph.poses[gauge] * ground_truth[gauge].inverse();
+  PoseVector moved(ground_truth.size());
+  for (size_t i = 0; i < ground_truth.size(); ++i) moved[i] = offset * ground_truth[i];
+  for (int id : graph.fixed) moved[id] = graph.poses[id];
+  return moved;
+}
+
+}  // namespace
+
+GlobalBatchResult optimizeBatchGlobal(PoseGraph* graph, const BatchOptions& options,
+                                      const PoseVector* ground_truth) {
+  GlobalBatchResult result;
+  if (graph->poses.empty()) return result;
+  PoseVector best_poses;
+  auto run = [&](BatchStart start, const PoseVector& initial, double initialization_s) {
+    PoseGraph copy = *graph;
+    copy.poses = initial;
+    BatchStartResult r;
+    r.start = start;
+    r.initialization_s = initialization_s;
+    r.batch = optimizeBatch(&copy, options);
+    r.chi2 = 2.0 * r.batch.final_cost;
+    if (result.starts.empty() || r.chi2 < result.chi2 * (1.0 - 1e-9)) {
+      result.best = start;
+      result.chi2 = r.chi2;
+      best_poses = copy.poses;
+    }
+    result.starts.push_back(r);
+  };
+
+  run(BatchStart::kOdometry, graph->poses, 0.0);
+  const auto started = std::chrono::steady_clock::now();
+  GlobalInitializationOptions init_options;
+  init_options.skip_outliers = options.skip_outliers;
+  try {
+    const PoseVector global = globalInitialization(*graph, init_options);
+    run(BatchStart::kGlobalInitialization, global, seconds(started));
+  } catch (const std::exception& e) {
+    BatchStartResult failed;
+    failed.start = BatchStart::kGlobalInitialization;
+    failed.chi2 = std::numeric_limits<double>::quiet_NaN();
+    failed.error = e.what();
+    result.starts.push_back(failed);
+  }
+  if (ground_truth) run(BatchStart::kGroundTruth, groundTruthOnGauge(*graph, *ground_truth), 0.0);
+  graph->poses = best_poses;
   return result;
 }
 
