@@ -111,9 +111,10 @@ IncrementalLog loadLog(const Arguments& a) {
     // Outliers must be inconsistent with the geometry the data supports: the
     // outlier-free optimum. (Ground truth can differ from it by metres --
     // ring, M3500, Sphere2500 -- which would let "outliers" through that the
-    // data itself cannot tell from true loops.)
+    // data itself cannot tell from true loops.) Started globally: from the
+    // odometry alone least squares can end in a local minimum (M3500b).
     PoseGraph reference = graph;
-    optimizeBatch(&reference);
+    optimizeBatchGlobal(&reference);
     OutlierOptions options;
     options.percent = percent;
     options.seed = a.seed;
