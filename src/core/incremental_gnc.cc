@@ -52,8 +52,19 @@ IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
 
 void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& information) {
   if (numPoses() != 0) throw std::invalid_argument("the first pose exists already");
-  solver_.addPose(value);
-  solver_.addFactor(SparsePoseGraphSolver::kAnchor, 0, value, information, FactorMode::kPlain);
+  addPoseWithPrior(value, information);
+}
+
+void IncrementalGnc::addPoseWithPrior(const Pose& value, const Eigen::MatrixXd& information) {
+  if (!value.translation.allFinite() || !value.rotation.coeffs().allFinite() || !information.allFinite() ||
+      value.rotation.norm() < 1e-9)
+    throw std::invalid_argument("prior contains NaN, Inf or a zero quaternion");
+  const int dim = dimension_ == 2 ? 3 : 6;
+  if (information.rows() != dim || information.cols() != dim)
+    throw std::invalid_argument("information must be " + std::to_string(dim) + "x" + std::to_string(dim));
+  sqrtInformation(information);  // throws if not positive definite
+  const int id = solver_.addPose(value);
+  solver_.addFactor(SparsePoseGraphSolver::kAnchor, id, value, information, FactorMode::kPlain);
 }
 
 void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {

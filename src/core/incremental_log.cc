@@ -17,6 +17,9 @@ namespace {
 // Information of the prior that anchors pose 0 of a replayed g2o graph: tight
 // enough to act as a gauge fix, loose enough to keep the system well scaled.
 constexpr double kPriorInformation = 1e8;
+// The start of a later odometry chain: sigma 1000 (m, rad), only a gauge
+// until a loop closure ties the chain to the others.
+constexpr double kChainPriorInformation = 1e-6;
 
 // Adjoint of `pose` in the residual's tangent order (translation first):
 // SE(2) [[R, (y, -x)], [0, 1]]; SE(3) [[R, [t]x R], [0, R]].
@@ -52,14 +55,14 @@ Edge reverseEdge(int dimension, const Edge& edge) {
   return reversed;
 }
 
-LogEntry priorEntry(const PoseGraph& graph) {
+LogEntry priorEntry(const PoseGraph& graph, int id, double information) {
   LogEntry entry;
   entry.type = EntryType::kPrior;
-  entry.edge.from = 0;
-  entry.edge.to = 0;
-  entry.edge.measurement = graph.poses[0];
+  entry.edge.from = id;
+  entry.edge.to = id;
+  entry.edge.measurement = graph.poses[id];
   const int n = graph.tangentDimension();
-  entry.edge.information = kPriorInformation * Eigen::MatrixXd::Identity(n, n);
+  entry.edge.information = information * Eigen::MatrixXd::Identity(n, n);
   entry.edge.kind = EdgeKind::kOdometry;  // a known inlier
   return entry;
 }
@@ -116,15 +119,18 @@ IncrementalLog logFromGraph(const PoseGraph& graph, const std::string& name) {
     }
   }
 
-  log.entries.push_back(priorEntry(graph));
+  log.entries.push_back(priorEntry(graph, 0, kPriorInformation));
   for (int i : by_newer_pose[0]) log.entries.push_back(edgeEntry(graph.edges[i]));
   for (int k = 0; k + 1 < n; ++k) {
     if (odometry[k] < 0) {
-      throw std::invalid_argument("logFromGraph: no odometry edge between poses " +
-                                  std::to_string(k) + " and " + std::to_string(k + 1));
+      // A gap in the odometry (a second session, a restarted robot): the new
+      // chain starts where the graph puts it, held by a weak prior, until its
+      // loop closures attach it to the rest.
+      log.entries.push_back(priorEntry(graph, k + 1, kChainPriorInformation));
+    } else {
+      const Edge& e = graph.edges[odometry[k]];
+      log.entries.push_back(edgeEntry(e.from == k ? e : reverseEdge(graph.dimension, e)));
     }
-    const Edge& e = graph.edges[odometry[k]];
-    log.entries.push_back(edgeEntry(e.from == k ? e : reverseEdge(graph.dimension, e)));
     for (int i : by_newer_pose[k + 1]) log.entries.push_back(edgeEntry(graph.edges[i]));
   }
   return log;
@@ -137,12 +143,11 @@ PoseGraph graphFromLog(const IncrementalLog& log) {
   bool anchored = false;
   for (const LogEntry& entry : log.entries) {
     if (entry.type == EntryType::kPrior) {
-      // Only the first prior on pose 0 seeds the initial guess; PoseGraph has
-      // no prior factors, so other priors are not represented.
-      if (entry.edge.to == 0 && !anchored) {
-        graph.poses[0] = entry.edge.measurement;
-        anchored = true;
-      }
+      // The first prior on pose 0 and the start of every later odometry
+      // chain seed the initial guess; PoseGraph has no prior factors, so
+      // the priors themselves are not represented.
+      if (entry.edge.to != 0 || !anchored) graph.poses[entry.edge.to] = entry.edge.measurement;
+      anchored = anchored || entry.edge.to == 0;
       continue;
     }
     Edge edge = entry.edge;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <stdexcept>
+#include <string>
 
 #include "agnc_pgo/core/incremental_gnc.h"
 
@@ -20,9 +21,11 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
     const auto start = Clock::now();
     switch (entry.type) {
       case EntryType::kPrior:
-        if (engine.numPoses() != 0 || entry.edge.to != 0)
-          throw std::invalid_argument("only one prior, on pose 0, is supported");
-        engine.addFirstPose(entry.edge.measurement, entry.edge.information);
+        // Pose 0, or the first pose of a later odometry chain.
+        if (entry.edge.to != engine.numPoses())
+          throw std::invalid_argument("a prior must start a new pose (pose " + std::to_string(entry.edge.to) +
+                                      " of a graph with " + std::to_string(engine.numPoses()) + ")");
+        engine.addPoseWithPrior(entry.edge.measurement, entry.edge.information);
         break;
       case EntryType::kOdometry:
         if (engine.numPoses() == 0) throw std::invalid_argument("odometry before the prior");

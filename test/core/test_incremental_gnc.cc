@@ -375,3 +375,34 @@ TEST(IncrementalGncEndToEnd, SingleLoopClosureAfterALongDriftClosesTheMap) {
   EXPECT_TRUE(result.loop_closures[0].inlier);
   EXPECT_LT(absoluteTrajectoryError(result.estimate, optimum.poses, 2), 0.01 * drift);
 }
+
+// Two sessions: the second starts 30 m and 1 rad away from where the first
+// ended, with no odometry between them (a robot restarted). Its loop
+// closures to the first session attach it; the result is the least-squares
+// optimum of the joined graph.
+TEST(IncrementalGncEndToEnd, SecondSessionIsAttachedByItsLoopClosures) {
+  PoseGraph graph;
+  graph.dimension = 2;
+  const int session = 60;
+  for (int i = 0; i < 2 * session; ++i) {
+    const int k = i % session;
+    const Pose truth = Pose::fromSE2(k, 0.0, 0.0);
+    graph.poses.push_back(i < session ? truth : Pose::fromSE2(30.0, 20.0, 1.0) * truth);
+    if (k > 0) {
+      Edge e = edge(i - 1, i, Pose::fromSE2(1.0, 0.0, 0.0));
+      e.kind = EdgeKind::kOdometry;
+      graph.edges.push_back(e);
+    }
+  }
+  for (int k = 10; k < session; k += 10) {  // the second drive revisits the first
+    Edge loop = edge(session + k, k, Pose::fromSE2(0.0, 0.0, 0.0));
+    loop.kind = EdgeKind::kLoopClosure;
+    graph.edges.push_back(loop);
+  }
+  const IncrementalLog log = logFromGraph(graph, "two sessions");
+  const ReplayResult result = replay(log, ReplayOptions());
+  EXPECT_EQ(result.counts.true_positive, 5);
+  EXPECT_EQ(result.counts.false_negative, 0);
+  for (int k = 0; k < session; ++k)
+    EXPECT_LT((result.estimate[session + k].translation - result.estimate[k].translation).norm(), 1e-3) << k;
+}

@@ -207,16 +207,33 @@ TEST(IncrementalLog, ReversedOdometryKeepsTheGaussian3D) {
        Pose::fromXYZRPY(0, 0, 0, 1e-4, 2e-4, -1e-4), Pose::fromXYZRPY(2e-4, 1e-4, -3e-4, 0, 0, 0)});
 }
 
-TEST(IncrementalLog, MissingOdometryIsAnError) {
+TEST(IncrementalLog, AGapInTheOdometryStartsANewChainWithAWeakPrior) {
   PoseGraph g;
-  g.poses.resize(3);
-  Edge loop;
-  loop.from = 0;
+  g.poses = {Pose::fromSE2(0, 0, 0), Pose::fromSE2(1, 0, 0), Pose::fromSE2(5, 5, 1)};
+  Edge odometry;
+  odometry.from = 0;
+  odometry.to = 1;
+  odometry.measurement = Pose::fromSE2(1, 0, 0);
+  odometry.information = Eigen::MatrixXd::Identity(3, 3);
+  odometry.kind = EdgeKind::kOdometry;
+  Edge loop = odometry;
   loop.to = 2;
-  loop.information = Eigen::MatrixXd::Identity(3, 3);
   loop.kind = EdgeKind::kLoopClosure;
-  g.edges.push_back(loop);
-  EXPECT_THROW(logFromGraph(g, "broken"), std::invalid_argument);
+  g.edges = {odometry, loop};
+  const IncrementalLog log = logFromGraph(g, "two chains");
+  ASSERT_EQ(log.entries.size(), 4u);
+  EXPECT_EQ(log.entries[0].type, EntryType::kPrior);
+  EXPECT_EQ(log.entries[1].type, EntryType::kOdometry);
+  // Pose 2 has no odometry from pose 1: a prior at its value, a gauge only.
+  EXPECT_EQ(log.entries[2].type, EntryType::kPrior);
+  EXPECT_EQ(log.entries[2].edge.to, 2);
+  EXPECT_EQ(log.entries[2].edge.measurement.translation, g.poses[2].translation);
+  EXPECT_DOUBLE_EQ(log.entries[2].edge.information(0, 0), 1e-6);
+  EXPECT_EQ(log.entries[3].type, EntryType::kLoopClosure);
+  EXPECT_EQ(log.numPoses(), 3);
+  // And back: the chain start keeps its value.
+  const PoseGraph back = graphFromLog(log);
+  EXPECT_EQ(back.poses[2].translation, g.poses[2].translation);
 }
 
 }  // namespace

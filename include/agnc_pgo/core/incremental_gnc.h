@@ -58,6 +58,11 @@ class IncrementalGnc {
 
   // Pose 0 and its prior (the gauge). Must be the first call.
   void addFirstPose(const Pose& value, const Eigen::MatrixXd& information);
+  // A new pose held by a prior: pose 0 (as addFirstPose), or the start of a
+  // new odometry chain (a second session), whose prior is a weak gauge until
+  // loop closures attach it. Throws std::invalid_argument (graph unchanged)
+  // on a non-finite value or non-positive-definite information.
+  void addPoseWithPrior(const Pose& value, const Eigen::MatrixXd& information);
   // Odometry from an existing pose. If edge.to == numPoses() the new pose is
   // created at pose(edge.from) * measurement. Throws std::invalid_argument
   // (graph unchanged) on unknown ids or non-positive-definite information.

@@ -33,7 +33,9 @@ struct IncrementalLog {
 // Orders a graph as a front-end would deliver it: prior on pose 0, then for
 // every k the odometry k -> k+1 followed by every loop closure whose newer
 // endpoint is k+1 (in file order). Odometry edges written k+1 -> k are
-// inverted. Requires an odometry edge for every consecutive pair.
+// inverted. Where no odometry edge joins k and k+1, pose k+1 starts a new
+// chain: a prior entry at its value in the graph with information 1e-6 (a
+// gauge only; the chain's loop closures attach it to the others).
 IncrementalLog logFromGraph(const PoseGraph& graph, const std::string& name);
 
 // Builds the graph a log describes (poses initialised by composing odometry).
