@@ -7,7 +7,7 @@
 #include <ros/console.h>
 
 #include "agnc_pgo/core/metrics.h"
-#include "agnc_pgo/core/replay.h"  // percentile
+#include "agnc_pgo/eval/replay.h"  // percentile
 
 namespace agnc_pgo {
 namespace ros_backend {

@@ -11,10 +11,10 @@
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
 #include "agnc_pgo/core/incremental_gnc.h"
-#include "agnc_pgo/core/incremental_log.h"
+#include "agnc_pgo/eval/incremental_log.h"
 #include "agnc_pgo/core/metrics.h"
-#include "agnc_pgo/core/outlier_injection.h"
-#include "agnc_pgo/core/replay.h"
+#include "agnc_pgo/eval/outlier_injection.h"
+#include "agnc_pgo/eval/replay.h"
 
 using namespace agnc_pgo::core;
 

@@ -1,4 +1,4 @@
-#include "agnc_pgo/core/irl_io.h"
+#include "agnc_pgo/eval/irl_io.h"
 
 #include <sstream>
 #include <string>

@@ -1,4 +1,4 @@
-#include "agnc_pgo/core/replay.h"
+#include "agnc_pgo/eval/replay.h"
 
 #include <algorithm>
 #include <chrono>

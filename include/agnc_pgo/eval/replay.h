@@ -8,7 +8,7 @@
 
 #include "agnc_pgo/core/gnc_options.h"
 #include "agnc_pgo/core/incremental_gnc.h"
-#include "agnc_pgo/core/incremental_log.h"
+#include "agnc_pgo/eval/incremental_log.h"
 #include "agnc_pgo/core/metrics.h"
 
 namespace agnc_pgo {

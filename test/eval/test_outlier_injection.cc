@@ -1,5 +1,5 @@
 // Tests for riSAM-style outlier injection (ALGORITHM.md §5).
-#include "agnc_pgo/core/outlier_injection.h"
+#include "agnc_pgo/eval/outlier_injection.h"
 
 #include <cmath>
 #include <cstdlib>
