@@ -6,8 +6,8 @@
 
 #include <ros/console.h>
 
-#include "agnc_pgo/core/metrics.h"
-#include "agnc_pgo/eval/replay.h"  // percentile
+#include "agnc_pgo/core/trajectory_io.h"
+#include "agnc_pgo/core/statistics.h"
 
 namespace agnc_pgo {
 namespace ros_backend {

@@ -7,7 +7,7 @@
 #include "agnc_pgo/core/g2o_io.h"
 #include "agnc_pgo/eval/incremental_log.h"
 #include "agnc_pgo/eval/irl_io.h"
-#include "agnc_pgo/core/metrics.h"
+#include "agnc_pgo/eval/metrics.h"
 #include "agnc_pgo/eval/outlier_injection.h"
 
 namespace agnc_pgo {

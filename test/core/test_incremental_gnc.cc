@@ -12,7 +12,7 @@
 #include "agnc_pgo/core/g2o_io.h"
 #include "agnc_pgo/core/incremental_gnc.h"
 #include "agnc_pgo/eval/incremental_log.h"
-#include "agnc_pgo/core/metrics.h"
+#include "agnc_pgo/eval/metrics.h"
 #include "agnc_pgo/eval/outlier_injection.h"
 #include "agnc_pgo/eval/replay.h"
 

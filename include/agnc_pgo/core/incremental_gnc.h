@@ -15,7 +15,7 @@
 
 #include "agnc_pgo/core/gnc_options.h"
 #include "agnc_pgo/core/graduation_schedule.h"
-#include "agnc_pgo/core/metrics.h"
+#include "agnc_pgo/core/trajectory_io.h"
 #include "agnc_pgo/core/pose_graph.h"
 #include "agnc_pgo/core/sparse_pose_graph_solver.h"
 

@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "agnc_pgo/core/pose_graph.h"
+#include "agnc_pgo/core/trajectory_io.h"  // Poses, writeTumTrajectory
 
 namespace agnc_pgo {
 namespace core {
@@ -24,16 +25,10 @@ ClassificationCounts classify(const std::vector<bool>& is_outlier, const std::ve
 // Rigid (no scale) least-squares alignment of `estimate` onto `reference`
 // positions (Umeyama). Returns the RMSE of position error after alignment.
 // Both must have the same length (throws std::invalid_argument otherwise).
-using Poses = std::vector<Pose, Eigen::aligned_allocator<Pose>>;
 double absoluteTrajectoryError(const Poses& estimate, const Poses& reference, int dimension);
 
 // RMSE of the translational relative-pose error between consecutive poses.
 double relativePoseError(const Poses& estimate, const Poses& reference);
-
-// Writes "index tx ty tz qx qy qz qw" lines (TUM format, time = pose index
-// unless `stamps` gives one stamp per pose).
-void writeTumTrajectory(const Poses& poses, const std::string& path,
-                        const std::vector<double>& stamps = {});
 
 }  // namespace core
 }  // namespace agnc_pgo
