@@ -3,6 +3,8 @@
 // injected outliers in 2D (ring) and 3D (smallGrid3D).
 #include <gtest/gtest.h>
 
+#include "shared_datasets.h"
+
 #include <algorithm>
 #include <cstdint>
 #include <memory>
@@ -224,6 +226,7 @@ TEST(IncrementalGnc, DeterministicForTheSameInput) {
 }
 
 TEST(IncrementalGncEndToEnd, CsailWithThirtyPercentOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const ReplayResult result = replayWithOutliers("csail.g2o", 30.0, GncOptions());
   EXPECT_EQ(result.loop_closures.size(), 128u + 54u);  // floor(30 * 128 / 70) = 54
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
@@ -231,6 +234,7 @@ TEST(IncrementalGncEndToEnd, CsailWithThirtyPercentOutliers) {
 }
 
 TEST(IncrementalGncEndToEnd, SmallGrid3dWithTwentyPercentOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const ReplayResult result = replayWithOutliers("smallGrid3D.g2o", 20.0, GncOptions());
   EXPECT_EQ(result.loop_closures.size(), 173u + 43u);  // floor(20 * 173 / 80) = 43
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
@@ -251,6 +255,7 @@ static PoseGraph firstPoses(const PoseGraph& graph, int n) {
 // behind): every loop closure graduates in one update. The ring's loop
 // closures need a large correction; the trust region must let it through.
 TEST(IncrementalGncEndToEnd, RingLoopClosuresBatchedIntoOneUpdate) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
   IncrementalGnc engine(2, GncOptions());
   engine.addFirstPose(graph.poses[0], 1e6 * Eigen::MatrixXd::Identity(3, 3));
@@ -277,6 +282,7 @@ TEST(IncrementalGncEndToEnd, RingLoopClosuresBatchedIntoOneUpdate) {
 // (a trust region carried over from earlier updates let it: ATE 10.7 m on
 // these 1200 poses of M3500 at 30 %, against 0.79 m without outliers).
 TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   PoseGraph reference;
   const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
                                        "manhattanOlson3500", 30.0, 1, &reference);
@@ -290,6 +296,7 @@ TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
 // dormant_weight; kept down to 1e-8 (as supported ones are), the sum of their
 // Geman-McClure tails pulls the map away from the inlier optimum.
 TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   PoseGraph reference;
   const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
                                        "manhattanOlson3500", 50.0, 1, &reference);
@@ -311,6 +318,7 @@ TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
 // the cost down to supported_dormant_weight and their small remaining pull
 // closes the ring.
 TEST(IncrementalGncEndToEnd, RingClosesWhenReplayedEntryByEntry) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
   const ReplayResult result = replay(logFromGraph(graph, "ring"), ReplayOptions());
   EXPECT_EQ(result.counts.true_positive, 26);
@@ -323,6 +331,7 @@ TEST(IncrementalGncEndToEnd, RingClosesWhenReplayedEntryByEntry) {
 // Without the support of its neighbours, each closing loop closure goes
 // dormant at dormant_weight on its own and the ring stays open.
 TEST(IncrementalGncEndToEnd, RingStaysOpenWithoutSupport) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
   ReplayOptions options;
   options.gnc.support_radius = 0;

@@ -5,6 +5,8 @@
 
 #include <gtest/gtest.h>
 
+#include "shared_datasets.h"
+
 namespace agnc_pgo {
 namespace core {
 namespace {
@@ -31,6 +33,7 @@ int countEntries(const IncrementalLog& log, EntryType type) {
 }
 
 TEST(IrlIo, ReadsCsailWithOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const IncrementalLog log = readIrl(irl("CSAIL_10_random_0.irl"));
   EXPECT_EQ(log.name, "CSAIL_10_random_0");
   EXPECT_EQ(log.dimension, 2);
@@ -90,6 +93,7 @@ TEST(IrlIo, ReadsCsailWithOutliers) {
 }
 
 TEST(IrlIo, ReadsIntelWithOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const IncrementalLog log = readIrl(irl("INTEL_10_random_0.irl"));
   EXPECT_EQ(log.dimension, 2);
   EXPECT_EQ(log.numPoses(), 943);
@@ -98,6 +102,7 @@ TEST(IrlIo, ReadsIntelWithOutliers) {
 }
 
 TEST(IrlIo, ReadsSphere2500In3DWithPermutedCovariance) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const IncrementalLog log = readIrl(irl("SPHERE2500_10_random_0.irl"));
   EXPECT_EQ(log.dimension, 3);
   EXPECT_EQ(log.numPoses(), 2500);
@@ -260,6 +265,7 @@ TEST(IrlIo, RejectsUnsupportedShapes) {
 }
 
 TEST(IrlIo, MissingFileNamesTheFile) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const std::string path = irl("missing.irl");
   try {
     readIrl(path);
@@ -270,6 +276,7 @@ TEST(IrlIo, MissingFileNamesTheFile) {
 }
 
 TEST(IrlIo, GraphFromIrlLogKeepsLabels) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph g = graphFromLog(readIrl(irl("CSAIL_10_random_0.irl")));
   EXPECT_EQ(g.dimension, 2);
   EXPECT_EQ(g.poses.size(), 1045u);
