@@ -265,7 +265,6 @@ TEST(IrlIo, RejectsUnsupportedShapes) {
 }
 
 TEST(IrlIo, MissingFileNamesTheFile) {
-  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const std::string path = irl("missing.irl");
   try {
     readIrl(path);
