@@ -7,7 +7,9 @@
 
 #include <omp.h>
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 
 namespace agnc_pgo {
 namespace core {
@@ -28,18 +30,28 @@ void keepCholmodSerial() { omp_set_max_active_levels(0); }
 
 }  // namespace
 
+struct SparsePoseGraphSolver::Decompositions {
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> simplicial;
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> supernodal;
+};
+
+SparsePoseGraphSolver::~SparsePoseGraphSolver() = default;
+SparsePoseGraphSolver::SparsePoseGraphSolver(SparsePoseGraphSolver&&) noexcept = default;
+SparsePoseGraphSolver& SparsePoseGraphSolver::operator=(SparsePoseGraphSolver&&) noexcept = default;
+
 SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
     : dimension_(dimension),
       tangent_(dimension == 2 ? 3 : 6),
       ambient_(dimension == 2 ? 3 : 7),
       shape_c_(shape_c),
       manifold_(makePoseManifold(dimension)),
-      anchor_(toBlock(dimension, Pose::identity())) {
+      anchor_(toBlock(dimension, Pose::identity())),
+      decompositions_(std::make_unique<Decompositions>()) {
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
   // SE(3) (supernodal, see the header): CHOLMOD's AMD on the scalar
   // pattern with a postordering gave a factor about twice as cheap as the
   // block ordering on Sphere2500 (the dense 6x6 blocks form wide supernodes).
-  cholmod_common& common = supernodal_cholesky_.cholmod();
+  cholmod_common& common = decompositions_->supernodal.cholmod();
   common.nmethods = 1;
   common.method[0].ordering = CHOLMOD_AMD;
   common.supernodal = CHOLMOD_SUPERNODAL;
@@ -213,9 +225,9 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   gradient_.resize(n);
   if (supernodal_) {
     keepCholmodSerial();
-    supernodal_cholesky_.analyzePattern(hessian_);
+    decompositions_->supernodal.analyzePattern(hessian_);
   } else {
-    simplicial_.analyzePattern(hessian_);
+    decompositions_->simplicial.analyzePattern(hessian_);
   }
 
   structure_first_ = first;
@@ -291,13 +303,13 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   bool factorized = false;
   if (supernodal_) {
     keepCholmodSerial();
-    supernodal_cholesky_.factorize(hessian_);
-    factorized = supernodal_cholesky_.info() == Eigen::Success;
-    if (factorized) gauss_newton = supernodal_cholesky_.solve(-gradient_);
+    decompositions_->supernodal.factorize(hessian_);
+    factorized = decompositions_->supernodal.info() == Eigen::Success;
+    if (factorized) gauss_newton = decompositions_->supernodal.solve(-gradient_);
   } else {
-    simplicial_.factorize(hessian_);
-    factorized = simplicial_.info() == Eigen::Success;
-    if (factorized) gauss_newton = simplicial_.solve(-gradient_);
+    decompositions_->simplicial.factorize(hessian_);
+    factorized = decompositions_->simplicial.info() == Eigen::Success;
+    if (factorized) gauss_newton = decompositions_->simplicial.solve(-gradient_);
   }
   ++result.factorizations;
   if (gauss_newton.size() == 0 || !gauss_newton.allFinite()) {
