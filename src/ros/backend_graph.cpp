@@ -48,6 +48,8 @@ void BackendGraph::reset() {
   accumulated_covariance_.resize(0, 0);
   last_good_ = LastGood();
   decisions_before_overrides_.clear();
+  decisions_.clear();
+  updates_ = 0;
 }
 
 std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe) {
@@ -200,7 +202,19 @@ bool BackendGraph::guardedSolve(const std::string& what, const std::function<cor
     return false;
   }
   rememberGood();
+  ++updates_;
+  noteDecisions();
   return true;
+}
+
+void BackendGraph::noteDecisions() {
+  const auto& loops = engine_->loopClosures();
+  decisions_.resize(std::min(decisions_.size(), loops.size()));
+  for (size_t k = 0; k < loops.size(); ++k) {
+    const Decision now{loops[k].inlier, loops[k].graduation.graduating, updates_};
+    if (k == decisions_.size()) decisions_.push_back(now);
+    else if (decisions_[k].inlier != now.inlier || decisions_[k].graduating != now.graduating) decisions_[k] = now;
+  }
 }
 
 bool BackendGraph::update(core::UpdateStats* stats, std::string* error) {
@@ -373,6 +387,11 @@ GraphSnapshotPtr BackendGraph::snapshot(bool with_edges) const {
     edge.mode = l.override_mode;
     edge.source = loop_meta_[k].source;
     edge.score = loop_meta_[k].score;
+    edge.test_distance = engine_->schedule().distanceOf(l.distance);
+    edge.threshold = engine_->schedule().thresholds().q95;
+    edge.supported = l.supported;
+    edge.dormant = l.dormant;
+    edge.decided_in_update = k < decisions_.size() ? decisions_[k].update : updates_;
     s->edges.push_back(edge);
   }
   return s;

@@ -2,7 +2,9 @@
 """~set_loop_closure_status by (from_stamp, to_stamp): forcing the injected
 outliers to be inliers bends the map and knocks true loop closures out;
 putting them back to AUTO (again by stamps) makes those graduate again, so
-every loop closure ends with the decision it had before the overrides."""
+every loop closure ends with the decision it had before the overrides.
+~pose_graph edges say why: test distance against the threshold, supported,
+dormant, the update that last decided them."""
 import sys
 import time
 import unittest
@@ -34,6 +36,23 @@ class Overrides(unittest.TestCase):
     def settled_graph(self, predicate, what):
         u.wait_until_settled(self.status, TIMEOUT)
         return self.graph.wait(predicate, TIMEOUT, what)
+
+    def test_edges_say_why(self):
+        g = self.graph.wait(lambda g: len(u.loop_edges(g)) == self.status.msg.loop_closures, TIMEOUT)
+        loops = u.loop_edges(g)
+        threshold = loops[0].threshold
+        self.assertGreater(threshold, 0.0)
+        for e in loops:
+            self.assertEqual(e.threshold, threshold)
+            if e.mode == MODE.AUTO:
+                self.assertEqual(e.inlier, e.test_distance < threshold, e)
+            self.assertGreater(e.decided_in_update, 0, e)
+            if e.dormant:
+                self.assertFalse(e.inlier, e)
+        self.assertTrue(any(e.dormant for e in loops if e.source == "outlier"))
+        self.assertTrue(any(e.supported for e in loops if e.source == "true"))
+        odometry = [e for e in g.edges if e.type == e.ODOMETRY]
+        self.assertTrue(all(e.threshold == 0 and e.decided_in_update == 0 for e in odometry))
 
     def test_unknown_stamps_fail(self):
         r = self.override(from_stamp=rospy.Time(1), to_stamp=rospy.Time(2), mode=MODE.FORCE_OUTLIER)

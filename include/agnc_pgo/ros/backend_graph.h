@@ -122,6 +122,15 @@ class BackendGraph {
   // Every loop closure's classification just before the first of the
   // FORCE overrides now in force (empty when none is).
   std::vector<bool> decisions_before_overrides_;
+  // For ~pose_graph: successful updates so far, and per loop closure its
+  // last classification / graduation and the update that made it.
+  struct Decision {
+    bool inlier = true, graduating = false;
+    long update = 0;
+  };
+  void noteDecisions();
+  long updates_ = 0;
+  std::vector<Decision> decisions_;
 };
 
 }  // namespace ros_backend
