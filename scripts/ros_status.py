@@ -2,6 +2,8 @@
 """Waits for the dataset player to finish and the agnc_pgo back-end to settle,
 then prints the final status table (counts, classification against the
 player's labels, per-loop-closure latency). Used by demo.sh.
+Exits non-zero when the back-end never reported, the player did not finish
+in time, or the graph has no loop closure (an empty demo is no success).
 usage: ros_status.py [--timeout SECONDS] [--backend /agnc_pgo_backend]"""
 import argparse
 import sys
@@ -19,6 +21,8 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--timeout", type=float, default=170.0)
     parser.add_argument("--backend", default="/agnc_pgo_backend")
+    parser.add_argument("--status-timeout", type=float, default=60.0,
+                        help="fail if the back-end has not reported within this many seconds")
     args = parser.parse_args(rospy.myargv()[1:])
     rospy.init_node("agnc_pgo_status", anonymous=True)
     rospy.Subscriber("/dataset_player/done", Bool, lambda m: state.update(done=m.data))
@@ -28,6 +32,8 @@ def main():
     last_key, since, progress = None, time.time(), 0.0
     while not rospy.is_shutdown() and time.time() - start < args.timeout:
         s, g = state["status"], state["graph"]
+        if s is None and time.time() - start > args.status_timeout:
+            break
         if s is not None and time.time() - progress > 10:
             progress = time.time()
             print("  [%3.0f s] %d nodes, %d loop closures (%d graduating)" %
@@ -72,6 +78,12 @@ def main():
     for k, v in rows:
         print("%-28s %s" % (k, v))
     print("-" * 78, flush=True)
+    if not state["done"]:
+        print("the dataset player did not finish within %.0f s" % args.timeout)
+        return 1
+    if s.loop_closures == 0:
+        print("the graph has no loop closure")
+        return 1
     return 0
 
 

@@ -23,6 +23,10 @@ trap cleanup EXIT
 
 status=0
 /usr/bin/python3 "$here/ros_status.py" --timeout "${AGNC_DEMO_TIMEOUT:-170}" || status=$?
+if [ "$status" -ne 0 ]; then
+  echo "[agnc_pgo] the demo failed; the end of its roslaunch log ($log):" >&2
+  grep -E "FATAL|ERROR|required" "$log" | tail -5 >&2 || true
+fi
 sleep 4  # let rviz draw the final markers
 mkdir -p "$(dirname "$out")"
 import -window root "$out"

@@ -8,7 +8,9 @@
 
 #include <omp.h>
 
+#include <Eigen/CholmodSupport>
 #include <Eigen/OrderingMethods>
+#include <Eigen/SparseCholesky>
 
 namespace agnc_pgo {
 namespace core {
@@ -38,18 +40,28 @@ void keepCholmodSerial() { omp_set_max_active_levels(0); }
 
 }  // namespace
 
+struct SparsePoseGraphSolver::Decompositions {
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> simplicial;
+  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> supernodal;
+};
+
+SparsePoseGraphSolver::~SparsePoseGraphSolver() = default;
+SparsePoseGraphSolver::SparsePoseGraphSolver(SparsePoseGraphSolver&&) noexcept = default;
+SparsePoseGraphSolver& SparsePoseGraphSolver::operator=(SparsePoseGraphSolver&&) noexcept = default;
+
 SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
     : dimension_(dimension),
       tangent_(dimension == 2 ? 3 : 6),
       ambient_(dimension == 2 ? 3 : 7),
       shape_c_(shape_c),
       manifold_(makePoseManifold(dimension)),
-      anchor_(toBlock(dimension, Pose::identity())) {
+      anchor_(toBlock(dimension, Pose::identity())),
+      decompositions_(std::make_unique<Decompositions>()) {
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
   // SE(3) (supernodal, see the header): CHOLMOD's AMD on the scalar
   // pattern with a postordering gave a factor about twice as cheap as the
   // block ordering on Sphere2500 (the dense 6x6 blocks form wide supernodes).
-  cholmod_common& common = supernodal_cholesky_.cholmod();
+  cholmod_common& common = decompositions_->supernodal.cholmod();
   common.nmethods = 1;
   common.method[0].ordering = CHOLMOD_AMD;
   common.supernodal = CHOLMOD_SUPERNODAL;
@@ -230,9 +242,9 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   gradient_.resize(n);
   if (supernodal_) {
     keepCholmodSerial();
-    supernodal_cholesky_.analyzePattern(hessian_);
+    decompositions_->supernodal.analyzePattern(hessian_);
   } else {
-    simplicial_.analyzePattern(hessian_);
+    decompositions_->simplicial.analyzePattern(hessian_);
   }
 
   structure_first_ = first;
@@ -299,19 +311,19 @@ void SparsePoseGraphSolver::prepare(int first) {
 bool SparsePoseGraphSolver::factorize() {
   if (supernodal_) {
     keepCholmodSerial();
-    supernodal_cholesky_.factorize(hessian_);
-    return supernodal_cholesky_.info() == Eigen::Success;
+    decompositions_->supernodal.factorize(hessian_);
+    return decompositions_->supernodal.info() == Eigen::Success;
   }
-  simplicial_.factorize(hessian_);
-  return simplicial_.info() == Eigen::Success;
+  decompositions_->simplicial.factorize(hessian_);
+  return decompositions_->simplicial.info() == Eigen::Success;
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
   if (supernodal_) {
     keepCholmodSerial();
-    return supernodal_cholesky_.solve(rhs);
+    return decompositions_->supernodal.solve(rhs);
   }
-  return simplicial_.solve(rhs);
+  return decompositions_->simplicial.solve(rhs);
 }
 
 std::vector<double> SparsePoseGraphSolver::innovationNorms(const std::vector<int>& factors, int first) {

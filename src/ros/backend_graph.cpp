@@ -47,6 +47,9 @@ void BackendGraph::reset() {
   held_.clear();
   accumulated_covariance_.resize(0, 0);
   last_good_ = LastGood();
+  decisions_before_overrides_.clear();
+  decisions_.clear();
+  updates_ = 0;
 }
 
 std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe) {
@@ -199,7 +202,19 @@ bool BackendGraph::guardedSolve(const std::string& what, const std::function<cor
     return false;
   }
   rememberGood();
+  ++updates_;
+  noteDecisions();
   return true;
+}
+
+void BackendGraph::noteDecisions() {
+  const auto& loops = engine_->loopClosures();
+  decisions_.resize(std::min(decisions_.size(), loops.size()));
+  for (size_t k = 0; k < loops.size(); ++k) {
+    const Decision now{loops[k].inlier, loops[k].graduation.graduating, updates_};
+    if (k == decisions_.size()) decisions_.push_back(now);
+    else if (decisions_[k].inlier != now.inlier || decisions_[k].graduating != now.graduating) decisions_[k] = now;
+  }
 }
 
 bool BackendGraph::update(core::UpdateStats* stats, std::string* error) {
@@ -213,7 +228,45 @@ bool BackendGraph::optimize(core::UpdateStats* stats, std::string* error) {
   }, stats, error);
 }
 
-void BackendGraph::setOverride(int index, core::LoopOverride mode) { engine_->setOverride(index, mode); }
+int BackendGraph::setOverride(int index, core::LoopOverride mode) {
+  const auto& loops = engine_->loopClosures();
+  if (index < 0 || index >= static_cast<int>(loops.size()))
+    throw std::invalid_argument("unknown loop closure " + std::to_string(index));
+  const auto forced = [&loops] {
+    return std::count_if(loops.begin(), loops.end(),
+                         [](const core::LoopClosure& l) { return l.override_mode != core::LoopOverride::kAuto; });
+  };
+  // The automatic decisions before the first of the overrides now in force.
+  if (mode != core::LoopOverride::kAuto && forced() == 0) {
+    decisions_before_overrides_.clear();
+    for (const auto& loop : loops) decisions_before_overrides_.push_back(loop.inlier);
+  }
+  engine_->setOverride(index, mode);
+  if (mode != core::LoopOverride::kAuto) return 0;
+  int regraduating = 0;
+  for (size_t k = 0; k < decisions_before_overrides_.size(); ++k) {
+    const core::LoopClosure& loop = loops[k];
+    if (static_cast<int>(k) == index || loop.override_mode != core::LoopOverride::kAuto) continue;
+    if (loop.inlier == decisions_before_overrides_[k]) continue;
+    engine_->setOverride(static_cast<int>(k), core::LoopOverride::kAuto);  // restarts its graduation
+    ++regraduating;
+  }
+  if (forced() == 0) decisions_before_overrides_.clear();
+  return regraduating;
+}
+
+int BackendGraph::findLoopClosure(const ros::Time& from_stamp, const ros::Time& to_stamp) const {
+  const LoopClosureMatcher::Match a = matcher_.match(from_stamp);
+  const LoopClosureMatcher::Match b = matcher_.match(to_stamp);
+  using S = LoopClosureMatcher::Status;
+  if (a.status != S::kFound || b.status != S::kFound) return -1;
+  const auto& loops = engine_->loopClosures();
+  for (size_t k = 0; k < loops.size(); ++k) {
+    const core::Edge& e = loops[k].edge;
+    if ((e.from == a.id && e.to == b.id) || (e.from == b.id && e.to == a.id)) return static_cast<int>(k);
+  }
+  return -1;
+}
 
 SavedGraph BackendGraph::save() const {
   SavedGraph g;
@@ -334,6 +387,11 @@ GraphSnapshotPtr BackendGraph::snapshot(bool with_edges) const {
     edge.mode = l.override_mode;
     edge.source = loop_meta_[k].source;
     edge.score = loop_meta_[k].score;
+    edge.test_distance = engine_->schedule().distanceOf(l.distance);
+    edge.threshold = engine_->schedule().thresholds().q95;
+    edge.innovation = l.innovation;
+    edge.dormant = l.dormant;
+    edge.decided_in_update = k < decisions_.size() ? decisions_[k].update : updates_;
     s->edges.push_back(edge);
   }
   return s;

@@ -18,13 +18,16 @@ BackendNodelet::~BackendNodelet() {
 
 void BackendNodelet::onInit() {
   ros::NodeHandle& pnh = getPrivateNodeHandle();
+  std::vector<std::string> unknown;
   try {
-    parameters_ = readParameters(pnh);
+    parameters_ = readParameters(pnh, &unknown);
   } catch (const std::exception& e) {
     NODELET_FATAL_STREAM("agnc_pgo: invalid parameters, not starting: " << e.what());
     throw std::runtime_error(std::string("agnc_pgo: invalid parameters: ") + e.what());
   }
   NODELET_INFO_STREAM(describe(parameters_));
+  for (const std::string& name : unknown)
+    NODELET_WARN_STREAM("agnc_pgo: unknown parameter ~" << name << " (ignored; misspelt? see config/default.yaml)");
   style_.frame = parameters_.map_frame;
   style_.node_scale = parameters_.marker_node_scale;
   style_.line_width = parameters_.marker_line_width;
@@ -34,10 +37,20 @@ void BackendNodelet::onInit() {
   if (parameters_.publish_pose_graph)
     pose_graph_publisher_ = pnh.advertise<agnc_pgo::PoseGraph>("pose_graph", 1, true);
   status_publisher_ = pnh.advertise<agnc_pgo::GraphStatus>("status", 10, true);
+  keyframe_publisher_ = pnh.advertise<agnc_pgo::Keyframe>("keyframes", 100);
   broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
 
   worker_ = std::make_unique<BackendWorker>(parameters_, this);
   worker_->start();
+  if (!parameters_.initial_graph.empty()) {
+    const CommandResult loaded = worker_->loadGraph(parameters_.initial_graph);
+    if (!loaded.success) {
+      NODELET_FATAL_STREAM("agnc_pgo: ~initial_graph: " << loaded.message << ", not starting");
+      worker_->stop();
+      throw std::runtime_error("agnc_pgo: ~initial_graph: " + loaded.message);
+    }
+    NODELET_INFO_STREAM("agnc_pgo: ~initial_graph: " << loaded.message);
+  }
 
   odometry_subscriber_ = pnh.subscribe("odom", parameters_.queue_size, &BackendNodelet::odometryCallback, this,
                                        ros::TransportHints().tcpNoDelay());
@@ -139,6 +152,15 @@ void BackendNodelet::publishGraph(const GraphSnapshot& snapshot) {
 
 void BackendNodelet::publishStatus(const StatusInfo& status) { status_publisher_.publish(makeStatus(status)); }
 
+void BackendNodelet::publishKeyframe(int id, const ros::Time& stamp, const core::Pose& estimate) {
+  agnc_pgo::Keyframe keyframe;
+  keyframe.header.stamp = stamp;
+  keyframe.header.frame_id = parameters_.map_frame;
+  keyframe.id = static_cast<uint32_t>(id);
+  keyframe.pose = toMsg(estimate);
+  keyframe_publisher_.publish(keyframe);
+}
+
 // ---------------------------------------------------------------- services
 
 namespace {
@@ -178,8 +200,10 @@ bool BackendNodelet::setLoopClosureStatus(agnc_pgo::SetLoopClosureStatus::Reques
     res.message = "mode must be 0 (auto), 1 (force inlier) or 2 (force outlier)";
     return true;
   }
-  return respond(worker_->setLoopClosureStatus(static_cast<int>(req.index), static_cast<core::LoopOverride>(req.mode)),
-                 &res);
+  const auto mode = static_cast<core::LoopOverride>(req.mode);
+  if (!req.from_stamp.isZero() && !req.to_stamp.isZero())
+    return respond(worker_->setLoopClosureStatus(req.from_stamp, req.to_stamp, mode), &res);
+  return respond(worker_->setLoopClosureStatus(static_cast<int>(req.index), mode), &res);
 }
 
 }  // namespace ros_backend

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <sstream>
 #include <stdexcept>
+#include <set>
 #include <vector>
 
 #include <ros/ros.h>
@@ -23,14 +24,45 @@ void requireNonNegative(double value, const std::string& name) {
   require(std::isfinite(value) && value >= 0.0, name, "must be >= 0 (got " + std::to_string(value) + ")");
 }
 
+// The private node handle, remembering every name asked for: what is left
+// under the namespace is unknown (a typo such as keyframe_translaton).
+class ParameterSource {
+ public:
+  explicit ParameterSource(const ros::NodeHandle& nh) : nh_(nh) {}
+  bool hasParam(const std::string& name) {
+    asked_.insert(name);
+    return nh_.hasParam(name);
+  }
+  template <typename T>
+  bool getParam(const std::string& name, T& value) {
+    asked_.insert(name);
+    return nh_.getParam(name, value);
+  }
+  std::vector<std::string> unknown() const {
+    std::vector<std::string> names, unknown;
+    ros::param::getParamNames(names);
+    const std::string prefix = nh_.getNamespace() + "/";
+    for (const std::string& name : names) {
+      if (name.compare(0, prefix.size(), prefix) != 0) continue;
+      const std::string relative = name.substr(prefix.size());
+      if (!asked_.count(relative)) unknown.push_back(relative);
+    }
+    return unknown;
+  }
+
+ private:
+  const ros::NodeHandle& nh_;
+  std::set<std::string> asked_;
+};
+
 // Reads ~name if present; a present parameter of the wrong type is an error.
 template <typename T>
-void get(const ros::NodeHandle& nh, const std::string& name, T* value, const char* type) {
+void get(ParameterSource& nh, const std::string& name, T* value, const char* type) {
   if (!nh.hasParam(name)) return;
   if (!nh.getParam(name, *value)) throw std::invalid_argument("parameter ~" + name + " must be " + type);
 }
 
-void getDouble(const ros::NodeHandle& nh, const std::string& name, double* value) {
+void getDouble(ParameterSource& nh, const std::string& name, double* value) {
   if (!nh.hasParam(name)) return;
   XmlRpc::XmlRpcValue v;
   nh.getParam(name, v);
@@ -39,7 +71,7 @@ void getDouble(const ros::NodeHandle& nh, const std::string& name, double* value
   else throw std::invalid_argument("parameter ~" + name + " must be a number");
 }
 
-void getSigmas(const ros::NodeHandle& nh, const std::string& name, Sigmas* sigmas) {
+void getSigmas(ParameterSource& nh, const std::string& name, Sigmas* sigmas) {
   if (!nh.hasParam(name)) return;
   XmlRpc::XmlRpcValue v;
   nh.getParam(name, v);
@@ -92,9 +124,11 @@ void validate(const BackendParameters& p) {
   }
 }
 
-BackendParameters readParameters(const ros::NodeHandle& nh) {
+BackendParameters readParameters(const ros::NodeHandle& private_nh, std::vector<std::string>* unknown) {
+  ParameterSource nh(private_nh);
   BackendParameters p;
   get(nh, "dimension", &p.dimension, "an integer (2 or 3)");
+  get(nh, "initial_graph", &p.initial_graph, "a string (a file written by ~save_graph)");
   get(nh, "map_frame", &p.map_frame, "a string");
   get(nh, "odom_frame", &p.odom_frame, "a string");
   getDouble(nh, "keyframe_translation", &p.keyframes.translation);
@@ -152,6 +186,7 @@ BackendParameters readParameters(const ros::NodeHandle& nh) {
   get(nh, "queue_size", &p.queue_size, "an integer");
   get(nh, "max_queue", &p.max_queue, "an integer");
   validate(p);
+  if (unknown) *unknown = nh.unknown();
   return p;
 }
 
@@ -178,7 +213,8 @@ std::string describe(const BackendParameters& p) {
       << p.gnc.convergence_step << ", max_gnc_steps " << p.gnc.max_gnc_steps << "\n"
       << "  tf_rate " << p.tf_rate << " Hz (future-dated " << p.tf_future_tolerance << " s), visualization_rate "
       << p.visualization_rate << " Hz, status_rate " << p.status_rate << " Hz, publish_pose_graph "
-      << (p.publish_pose_graph ? "true" : "false");
+      << (p.publish_pose_graph ? "true" : "false")
+      << (p.initial_graph.empty() ? std::string() : "\n  initial_graph " + p.initial_graph);
   return out.str();
 }
 

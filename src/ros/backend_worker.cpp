@@ -6,14 +6,15 @@
 
 #include <ros/console.h>
 
-#include "agnc_pgo/core/metrics.h"
-#include "agnc_pgo/core/replay.h"  // percentile
+#include "agnc_pgo/core/trajectory_io.h"
+#include "agnc_pgo/core/statistics.h"
 
 namespace agnc_pgo {
 namespace ros_backend {
 
 namespace {
 constexpr double kCommandTimeout = 120.0;  // [s] a service waits this long for the worker
+constexpr double kWarningInterval = 5.0;   // [s] at most one logged warning of a kind per interval
 }
 
 BackendWorker::BackendWorker(const BackendParameters& parameters, BackendOutput* output)
@@ -47,9 +48,21 @@ void BackendWorker::stop() {
 }
 
 void BackendWorker::warn(const std::string& message) {
-  ROS_WARN_STREAM("agnc_pgo: " << message);
+  const double t = now();
   std::lock_guard<std::mutex> lock(counters_mutex_);
   counters_.last_warning = message;
+  WarningThrottle& throttle = warning_throttle_[message.substr(0, message.find(':'))];
+  if (t - throttle.last_logged < kWarningInterval) {
+    ++throttle.suppressed;
+    return;
+  }
+  if (throttle.suppressed > 0)
+    ROS_WARN_STREAM("agnc_pgo: " << message << " (and " << throttle.suppressed << " more like it in the last "
+                                 << static_cast<int>(t - throttle.last_logged) << " s, counted in ~status)");
+  else
+    ROS_WARN_STREAM("agnc_pgo: " << message);
+  throttle.last_logged = t;
+  throttle.suppressed = 0;
 }
 
 void BackendWorker::rejectOdometry(const std::string& reason) {
@@ -161,6 +174,10 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
           }
           warn("rejected odometry: " + warning);
         }
+        if (keyframe) {
+          const int id = graph_.numNodes() - 1;
+          output_->publishKeyframe(id, graph_.stamps()[id], graph_.engine()->pose(id));
+        }
         changed |= keyframe;
         break;
       }
@@ -202,11 +219,13 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
   if (graph_.heldLoopClosures() > 0) {
     std::vector<double> added;
     for (const std::string& warning : graph_.retryHeld(now(), &added)) {
-      std::lock_guard<std::mutex> lock(counters_mutex_);
-      ++counters_.rejected_loop_closures;
-      if (warning.find("dropped") != std::string::npos) ++counters_.dropped_loop_closures;
-      counters_.last_warning = warning;
-      ROS_WARN_STREAM("agnc_pgo: " << warning);
+      const bool dropped = warning.find("dropped") != std::string::npos;
+      {
+        std::lock_guard<std::mutex> lock(counters_mutex_);
+        ++counters_.rejected_loop_closures;
+        if (dropped) ++counters_.dropped_loop_closures;
+      }
+      warn((dropped ? "dropped loop closure: " : "rejected loop closure: ") + warning);
     }
     if (!added.empty()) {
       pending_latency_.insert(pending_latency_.end(), added.begin(), added.end());
@@ -357,8 +376,11 @@ CommandResult BackendWorker::optimize() {
       return {false, error};
     }
     last_update_ = ros::Time::now();
-    return {true, "optimised: " + std::to_string(stats.iterations) + " iterations, " +
-                      (stats.converged ? "converged" : "not converged")};
+    if (stats.converged)
+      return {true, "optimised: converged after " + std::to_string(stats.iterations) + " iterations"};
+    return {true, "optimised: stopped at the iteration cap (~optimize_iterations = " +
+                      std::to_string(parameters_.optimize_iterations) + ") after " +
+                      std::to_string(stats.iterations) + " iterations, not converged"};
   });
 }
 
@@ -385,16 +407,34 @@ CommandResult BackendWorker::setPaused(bool paused) {
 }
 
 CommandResult BackendWorker::setLoopClosureStatus(int index, core::LoopOverride mode) {
-  return call([this, index, mode]() -> CommandResult {
-    if (index < 0 || index >= graph_.numLoopClosures())
-      return {false, "unknown loop closure " + std::to_string(index) + " (graph has " +
-                         std::to_string(graph_.numLoopClosures()) + ")"};
-    graph_.setOverride(index, mode);
-    needs_update_ = true;
-    if (!paused_) solve();
-    const core::LoopClosure& loop = graph_.engine()->loopClosures()[index];
-    return {true, "loop closure " + std::to_string(index) + " is now " + (loop.inlier ? "an inlier" : "an outlier")};
+  return call([this, index, mode]() -> CommandResult { return applyOverride(index, mode); });
+}
+
+CommandResult BackendWorker::setLoopClosureStatus(const ros::Time& from_stamp, const ros::Time& to_stamp,
+                                                  core::LoopOverride mode) {
+  return call([this, from_stamp, to_stamp, mode]() -> CommandResult {
+    const int index = graph_.findLoopClosure(from_stamp, to_stamp);
+    if (index < 0)
+      return {false, "no loop closure between the keyframes at " + std::to_string(from_stamp.toSec()) + " and " +
+                         std::to_string(to_stamp.toSec())};
+    return applyOverride(index, mode);
   });
+}
+
+CommandResult BackendWorker::applyOverride(int index, core::LoopOverride mode) {
+  if (index < 0 || index >= graph_.numLoopClosures())
+    return {false, "unknown loop closure " + std::to_string(index) + " (graph has " +
+                       std::to_string(graph_.numLoopClosures()) + ")"};
+  const int regraduating = graph_.setOverride(index, mode);
+  needs_update_ = true;
+  if (!paused_) solve();
+  const core::LoopClosure& loop = graph_.engine()->loopClosures()[index];
+  std::string message =
+      "loop closure " + std::to_string(index) + " is now " + (loop.inlier ? "an inlier" : "an outlier");
+  if (regraduating > 0)
+    message += "; " + std::to_string(regraduating) + " loop closures whose classification the override had "
+               "changed graduated again";
+  return {true, message};
 }
 
 }  // namespace ros_backend

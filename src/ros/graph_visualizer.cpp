@@ -166,6 +166,11 @@ agnc_pgo::PoseGraph makePoseGraph(const GraphSnapshot& snapshot, const std::stri
     out.mode = static_cast<uint8_t>(e.mode);
     out.source = e.source;
     out.score = e.score;
+    out.test_distance = e.test_distance;
+    out.threshold = e.threshold;
+    out.innovation = e.innovation;
+    out.dormant = e.dormant;
+    out.decided_in_update = static_cast<uint32_t>(e.decided_in_update);
   }
   return msg;
 }

@@ -17,10 +17,10 @@
 
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
-#include "agnc_pgo/core/irl_io.h"
-#include "agnc_pgo/core/metrics.h"
-#include "agnc_pgo/core/outlier_injection.h"
-#include "agnc_pgo/core/replay.h"
+#include "agnc_pgo/eval/irl_io.h"
+#include "agnc_pgo/eval/metrics.h"
+#include "agnc_pgo/eval/outlier_injection.h"
+#include "agnc_pgo/eval/replay.h"
 
 namespace {
 

@@ -1,5 +1,5 @@
-// The core library must build without ROS: no ROS header may be included
-// anywhere under include/agnc_pgo/core or src/core.
+// The core and evaluation libraries must build without ROS: no ROS header may be included
+// anywhere under include/agnc_pgo/{core,eval} or src/{core,eval}.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -13,7 +13,7 @@ TEST(CoreIsRosFree, NoRosIncludes) {
   const std::regex ros_include(
       R"(#\s*include\s*[<"](ros/|roscpp|nodelet/|tf2|tf2_ros/|pluginlib/|rviz/|std_msgs/|geometry_msgs/|nav_msgs/|visualization_msgs/|sensor_msgs/|agnc_pgo/ros/))");
   int files = 0;
-  for (const std::string dir : {"/include/agnc_pgo/core", "/src/core"}) {
+  for (const std::string dir : {"/include/agnc_pgo/core", "/src/core", "/include/agnc_pgo/eval", "/src/eval"}) {
     for (const auto& entry : fs::recursive_directory_iterator(std::string(AGNC_PGO_SOURCE_DIR) + dir)) {
       if (!entry.is_regular_file()) continue;
       ++files;

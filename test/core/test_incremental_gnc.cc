@@ -3,6 +3,8 @@
 // injected outliers in 2D (ring) and 3D (smallGrid3D).
 #include <gtest/gtest.h>
 
+#include "shared_datasets.h"
+
 #include <algorithm>
 #include <cstdint>
 #include <memory>
@@ -12,10 +14,10 @@
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
 #include "agnc_pgo/core/incremental_gnc.h"
-#include "agnc_pgo/core/incremental_log.h"
-#include "agnc_pgo/core/metrics.h"
-#include "agnc_pgo/core/outlier_injection.h"
-#include "agnc_pgo/core/replay.h"
+#include "agnc_pgo/eval/incremental_log.h"
+#include "agnc_pgo/eval/metrics.h"
+#include "agnc_pgo/eval/outlier_injection.h"
+#include "agnc_pgo/eval/replay.h"
 
 using namespace agnc_pgo::core;
 
@@ -241,6 +243,7 @@ TEST(IncrementalGnc, DeterministicForTheSameInput) {
 }
 
 TEST(IncrementalGncEndToEnd, CsailWithThirtyPercentOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const ReplayResult result = replayWithOutliers("csail.g2o", 30.0, GncOptions());
   EXPECT_EQ(result.loop_closures.size(), 128u + 54u);  // floor(30 * 128 / 70) = 54
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
@@ -248,6 +251,7 @@ TEST(IncrementalGncEndToEnd, CsailWithThirtyPercentOutliers) {
 }
 
 TEST(IncrementalGncEndToEnd, SmallGrid3dWithTwentyPercentOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const ReplayResult result = replayWithOutliers("smallGrid3D.g2o", 20.0, GncOptions());
   EXPECT_EQ(result.loop_closures.size(), 173u + 43u);  // floor(20 * 173 / 80) = 43
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
@@ -268,6 +272,7 @@ static PoseGraph firstPoses(const PoseGraph& graph, int n) {
 // behind): every loop closure graduates in one update. The ring's loop
 // closures need a large correction; the trust region must let it through.
 TEST(IncrementalGncEndToEnd, RingLoopClosuresBatchedIntoOneUpdate) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
   IncrementalGnc engine(2, GncOptions());
   engine.addFirstPose(graph.poses[0], 1e6 * Eigen::MatrixXd::Identity(3, 3));
@@ -294,6 +299,7 @@ TEST(IncrementalGncEndToEnd, RingLoopClosuresBatchedIntoOneUpdate) {
 // (a trust region carried over from earlier updates let it: ATE 10.7 m on
 // these 1200 poses of M3500 at 30 %, against 0.79 m without outliers).
 TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   PoseGraph reference;
   const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
                                        "manhattanOlson3500", 30.0, 1, &reference);
@@ -307,6 +313,7 @@ TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
 // dormant_weight; kept down to 1e-8, the sum of their Geman-McClure tails
 // pulls the map away from the inlier optimum.
 TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   PoseGraph reference;
   const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
                                        "manhattanOlson3500", 50.0, 1, &reference);
@@ -327,6 +334,7 @@ TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
 // metres: each is a confident outlier by its own covariance but plausible
 // by its innovation, so it lands over the whole ring and is kept.
 TEST(IncrementalGncEndToEnd, RingClosesWhenReplayedEntryByEntry) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph graph = withOutliers(readG2o(dataset("ring.g2o")), "ring", 10.0, 2);
   const ReplayResult result = replay(logFromGraph(graph, "ring"), ReplayOptions());
   EXPECT_EQ(result.counts.true_positive, 26);

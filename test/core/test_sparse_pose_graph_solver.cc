@@ -2,6 +2,8 @@
 // ceres::Solve on the same graphs.
 #include <gtest/gtest.h>
 
+#include "shared_datasets.h"
+
 #include <omp.h>
 
 #include <memory>
@@ -47,6 +49,7 @@ double maxPositionDifference(const SparsePoseGraphSolver& solver, const PoseGrap
 }  // namespace
 
 TEST(SparsePoseGraphSolver, NoisyToyGraphReachesGtsamOptimum) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph g = readG2o(dataset("noisyToyGraph.g2o"));
   const PoseGraph optimum = readG2o(dataset("noisyToyGraph_optimized.g2o"));
   const auto owner = solveIncrementalSolver(g, 200);
@@ -66,6 +69,7 @@ TEST(SparsePoseGraphSolver, NoisyToyGraphReachesGtsamOptimum) {
 }
 
 TEST(SparsePoseGraphSolver, AgreesWithCeresOnTwoAndThreeDimensionalGraphs) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   for (const std::string name : {"noisyToyGraph.g2o", "pose2example.g2o", "tinyGrid3D.g2o", "smallGrid3D.g2o", "pose3example.g2o"}) {
     PoseGraph g = readG2o(dataset(name));
     const auto solver = solveIncrementalSolver(g, 200);
@@ -75,6 +79,7 @@ TEST(SparsePoseGraphSolver, AgreesWithCeresOnTwoAndThreeDimensionalGraphs) {
 }
 
 TEST(SparsePoseGraphSolver, WindowHoldsOlderPosesFixed) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph g = readG2o(dataset("pose2example.g2o"));
   SparsePoseGraphSolver solver(2);
   for (const Pose& p : g.poses) solver.addPose(p);
@@ -105,6 +110,7 @@ TEST(SparsePoseGraphSolver, DisabledFactorHasNoWeightAndNoInfluence) {
 // (see keepCholmodSerial), and for that thread only: a nodelet manager's other
 // threads keep their parallelism.
 TEST(SparsePoseGraphSolver, Se3FactorisationIsSerialOnlyOnItsOwnThread) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   int on_solver_thread = -1, on_other_thread = -1;
   std::thread solver_thread([&on_solver_thread] {
     auto solver = solveIncrementalSolver(readG2o(dataset("tinyGrid3D.g2o")), 1);

@@ -25,8 +25,6 @@
 #include <memory>
 #include <vector>
 
-#include <Eigen/CholmodSupport>
-#include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 #include <ceres/cost_function.h>
 #include <ceres/manifold.h>
@@ -54,6 +52,9 @@ class SparsePoseGraphSolver {
   static constexpr int kAnchor = -1;
 
   explicit SparsePoseGraphSolver(int dimension, double shape_c = 3.0);
+  ~SparsePoseGraphSolver();
+  SparsePoseGraphSolver(SparsePoseGraphSolver&&) noexcept;
+  SparsePoseGraphSolver& operator=(SparsePoseGraphSolver&&) noexcept;
 
   int dimension() const { return dimension_; }
   int numPoses() const { return static_cast<int>(blocks_.size()); }
@@ -186,9 +187,11 @@ class SparsePoseGraphSolver {
   // SE(2): Eigen's simplicial LLT on the block-AMD order (no per-call
   // overhead; on M3500 it beat CHOLMOD's supernodal LLT up to the full graph).
   // SE(3): CHOLMOD's supernodal LLT, whose dense kernels win on 6x6 blocks.
+  // Both live in the .cc file, so that CHOLMOD's headers stay out of the
+  // installed ones.
   bool supernodal_ = false;
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> simplicial_;
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> supernodal_cholesky_;
+  struct Decompositions;
+  std::unique_ptr<Decompositions> decompositions_;
   std::vector<PoseBlock> saved_;
   bool trust_region_ = true;
   double initial_radius_ = 1.0;

@@ -64,7 +64,13 @@ class BackendGraph {
   // closures added since) and returns false with `error` set.
   bool update(core::UpdateStats* stats, std::string* error);
   bool optimize(core::UpdateStats* stats, std::string* error);
-  void setOverride(int index, core::LoopOverride mode);  // throws std::invalid_argument
+  // Throws std::invalid_argument. Back to AUTO, the loop closures whose
+  // classification differs from before the overrides graduate again (their
+  // decision was made against a map the overrides had bent); returns how many.
+  int setOverride(int index, core::LoopOverride mode);
+  // The first loop closure between the keyframes at these stamps (either
+  // order, within ~stamp_tolerance), or -1.
+  int findLoopClosure(const ros::Time& from_stamp, const ros::Time& to_stamp) const;
   void reset();
 
   SavedGraph save() const;
@@ -113,6 +119,18 @@ class BackendGraph {
   std::deque<LoopClosureInput> held_;
   Eigen::MatrixXd accumulated_covariance_;  // message covariances of skipped odometry
   LastGood last_good_;
+  // Every loop closure's classification just before the first of the
+  // FORCE overrides now in force (empty when none is).
+  std::vector<bool> decisions_before_overrides_;
+  // For ~pose_graph: successful updates so far, and per loop closure its
+  // last classification / graduation and the update that made it.
+  struct Decision {
+    bool inlier = true, graduating = false;
+    long update = 0;
+  };
+  void noteDecisions();
+  long updates_ = 0;
+  std::vector<Decision> decisions_;
 };
 
 }  // namespace ros_backend

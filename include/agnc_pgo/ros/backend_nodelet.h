@@ -14,6 +14,7 @@
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include "agnc_pgo/Keyframe.h"
 #include "agnc_pgo/LoadGraph.h"
 #include "agnc_pgo/LoopClosure.h"
 #include "agnc_pgo/SaveGraph.h"
@@ -34,6 +35,7 @@ class BackendNodelet : public nodelet::Nodelet, public BackendOutput {
   void publishEstimate(const GraphSnapshot& nodes_only) override;
   void publishGraph(const GraphSnapshot& full) override;
   void publishStatus(const StatusInfo& status) override;
+  void publishKeyframe(int id, const ros::Time& stamp, const core::Pose& estimate) override;
 
  private:
   void onInit() override;
@@ -57,6 +59,7 @@ class BackendNodelet : public nodelet::Nodelet, public BackendOutput {
   std::unique_ptr<BackendWorker> worker_;
   ros::Subscriber odometry_subscriber_, loop_closure_subscriber_;
   ros::Publisher path_publisher_, marker_publisher_, pose_graph_publisher_, status_publisher_;
+  ros::Publisher keyframe_publisher_;
   std::vector<ros::ServiceServer> services_;
   ros::WallTimer tf_timer_;
   std::unique_ptr<tf2_ros::TransformBroadcaster> broadcaster_;

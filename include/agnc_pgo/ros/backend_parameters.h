@@ -5,6 +5,7 @@
 
 #include <array>
 #include <string>
+#include <vector>
 
 #include "agnc_pgo/core/gnc_options.h"
 
@@ -26,6 +27,7 @@ struct KeyframeParameters {
 
 struct BackendParameters {
   int dimension = 2;                       // 2 (SE(2): x y yaw) or 3 (SE(3))
+  std::string initial_graph;               // saved graph (~save_graph) loaded at start-up; empty: none
   std::string map_frame = "map";
   std::string odom_frame = "odom";
   KeyframeParameters keyframes;
@@ -53,7 +55,9 @@ void validate(const BackendParameters& p);
 
 // Reads every parameter (defaults above when absent), then validates.
 // Throws std::invalid_argument for a wrong type or an invalid value.
-BackendParameters readParameters(const ros::NodeHandle& private_nh);
+// `unknown` (optional) receives the names under the private namespace that
+// are no parameter of the back-end (relative, e.g. "keyframe_translaton").
+BackendParameters readParameters(const ros::NodeHandle& private_nh, std::vector<std::string>* unknown = nullptr);
 
 // Multi-line human-readable dump for the start-up log.
 std::string describe(const BackendParameters& p);

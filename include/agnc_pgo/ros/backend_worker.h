@@ -7,6 +7,7 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <map>
 #include <future>
 #include <mutex>
 #include <string>
@@ -35,6 +36,7 @@ class BackendOutput {
   virtual void publishEstimate(const GraphSnapshot& nodes_only) = 0;  // ~path
   virtual void publishGraph(const GraphSnapshot& full) = 0;           // ~markers, ~pose_graph
   virtual void publishStatus(const StatusInfo& status) = 0;           // ~status
+  virtual void publishKeyframe(int id, const ros::Time& stamp, const core::Pose& estimate) = 0;  // ~keyframes
 };
 
 struct CommandResult {
@@ -66,6 +68,9 @@ class BackendWorker {
   CommandResult reset();
   CommandResult setPaused(bool paused);
   CommandResult setLoopClosureStatus(int index, core::LoopOverride mode);
+  // The same, addressed by the stamps of the loop closure's keyframes.
+  CommandResult setLoopClosureStatus(const ros::Time& from_stamp, const ros::Time& to_stamp,
+                                     core::LoopOverride mode);
 
   // Latest map -> odom (thread-safe).
   core::Pose mapToOdom() const;
@@ -89,7 +94,11 @@ class BackendWorker {
   void publish(bool force_graph);
   void publishStatus();
   StatusInfo status() const;
+  // Logs a warning, throttled per kind (the text before its first ':'): at
+  // most one line per kind every kWarningInterval seconds, saying how many
+  // like it were not logged. Every one is counted in ~status regardless.
   void warn(const std::string& message);
+  CommandResult applyOverride(int index, core::LoopOverride mode);
 
   BackendParameters parameters_;
   BackendOutput* output_;
@@ -116,6 +125,12 @@ class BackendWorker {
   ros::Time last_update_;
   std::vector<double> pending_latency_;  // receive times of loop closures not yet published
   std::vector<double> latencies_ms_;
+
+  struct WarningThrottle {
+    double last_logged = -1e9;
+    int suppressed = 0;
+  };
+  std::map<std::string, WarningThrottle> warning_throttle_;  // by kind; guarded by counters_mutex_
 };
 
 }  // namespace ros_backend

@@ -36,6 +36,10 @@ struct SnapshotEdge {
   core::LoopOverride mode = core::LoopOverride::kAuto;
   std::string source;
   double score = 0.0;
+  double test_distance = 0.0, threshold = 0.0;  // loop closures: what GNC compared
+  double innovation = 0.0;  // core::LoopClosure::innovation
+  bool dormant = false;
+  long decided_in_update = 0;
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
 

@@ -1,5 +1,5 @@
 // False loop closures as in riSAM's experiments (ALGORITHM.md §5).
-#include "agnc_pgo/core/outlier_injection.h"
+#include "agnc_pgo/eval/outlier_injection.h"
 
 #include <algorithm>
 #include <cctype>

@@ -1,4 +1,4 @@
-#include "agnc_pgo/core/incremental_log.h"
+#include "agnc_pgo/eval/incremental_log.h"
 
 #include <algorithm>
 #include <cstdlib>

@@ -1,4 +1,4 @@
-#include "agnc_pgo/core/irl_io.h"
+#include "agnc_pgo/eval/irl_io.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include <Eigen/Cholesky>
-#include "tokenize.h"
+#include "../core/tokenize.h"
 
 namespace agnc_pgo {
 namespace core {

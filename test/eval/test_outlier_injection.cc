@@ -1,5 +1,5 @@
 // Tests for riSAM-style outlier injection (ALGORITHM.md §5).
-#include "agnc_pgo/core/outlier_injection.h"
+#include "agnc_pgo/eval/outlier_injection.h"
 
 #include <cmath>
 #include <cstdlib>
@@ -11,6 +11,8 @@
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "shared_datasets.h"
 
 #include <Eigen/Geometry>
 
@@ -464,6 +466,7 @@ std::string datasetPath(const std::string& name) {
 }
 
 TEST(InjectOutliersDataset, Csail) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph graph = readG2o(datasetPath("csail.g2o"));
   ASSERT_EQ(graph.poses.size(), 1045u);
   for (double percent : {10.0, 30.0, 50.0}) {
@@ -479,6 +482,7 @@ TEST(InjectOutliersDataset, Csail) {
 }
 
 TEST(InjectOutliersDataset, ManhattanAgainstGroundTruth) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph graph = readG2o(datasetPath("manhattanOlson3500.g2o"));
   const PoseGraph truth = readG2o(datasetPath("manhattanOlson3500_gt.g2o"));
   ASSERT_EQ(graph.poses.size(), 3500u);

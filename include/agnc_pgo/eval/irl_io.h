@@ -5,7 +5,7 @@
 #include <string>
 
 #include "agnc_pgo/core/g2o_io.h"  // ParseError
-#include "agnc_pgo/core/incremental_log.h"
+#include "agnc_pgo/eval/incremental_log.h"
 
 namespace agnc_pgo {
 namespace core {

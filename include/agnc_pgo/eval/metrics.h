@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "agnc_pgo/core/pose_graph.h"
+#include "agnc_pgo/core/trajectory_io.h"  // Poses, writeTumTrajectory
 
 namespace agnc_pgo {
 namespace core {
@@ -28,11 +29,6 @@ double absoluteTrajectoryError(const Poses& estimate, const Poses& reference, in
 
 // RMSE of the translational relative-pose error between consecutive poses.
 double relativePoseError(const Poses& estimate, const Poses& reference);
-
-// Writes "index tx ty tz qx qy qz qw" lines (TUM format, time = pose index
-// unless `stamps` gives one stamp per pose).
-void writeTumTrajectory(const Poses& poses, const std::string& path,
-                        const std::vector<double>& stamps = {});
 
 }  // namespace core
 }  // namespace agnc_pgo

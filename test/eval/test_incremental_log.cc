@@ -1,10 +1,12 @@
-#include "agnc_pgo/core/incremental_log.h"
+#include "agnc_pgo/eval/incremental_log.h"
 
 #include <algorithm>
 #include <string>
 #include <vector>
 
 #include <gtest/gtest.h>
+
+#include "shared_datasets.h"
 
 #include "agnc_pgo/core/g2o_io.h"
 
@@ -65,6 +67,7 @@ void expectSameEdges(const std::vector<Edge>& expected, const std::vector<Edge>&
 }
 
 TEST(IncrementalLog, CsailReplaysInPoseOrder) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph g = readG2o(dataset("csail.g2o"));
   const IncrementalLog log = logFromGraph(g, "csail");
   EXPECT_EQ(log.name, "csail");
@@ -89,6 +92,7 @@ TEST(IncrementalLog, CsailReplaysInPoseOrder) {
 }
 
 TEST(IncrementalLog, RingWithBackwardsLoops) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph g = readG2o(dataset("ring.g2o"));
   const IncrementalLog log = logFromGraph(g, "ring");
   ASSERT_EQ(log.entries.size(), 1u + 433u + 26u);
@@ -103,6 +107,7 @@ TEST(IncrementalLog, RingWithBackwardsLoops) {
 }
 
 TEST(IncrementalLog, Sphere2500In3D) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph g = readG2o(dataset("sphere2500.g2o"));
   const IncrementalLog log = logFromGraph(g, "sphere2500");
   EXPECT_EQ(log.dimension, 3);
@@ -112,6 +117,7 @@ TEST(IncrementalLog, Sphere2500In3D) {
 }
 
 TEST(IncrementalLog, GraphFromLogRestoresEdges) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   for (const char* file : {"csail.g2o", "ring.g2o", "smallGrid3D.g2o", "manhattanOlson3500.g2o"}) {
     SCOPED_TRACE(file);
     const PoseGraph g = readG2o(dataset(file));

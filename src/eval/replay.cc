@@ -1,4 +1,4 @@
-#include "agnc_pgo/core/replay.h"
+#include "agnc_pgo/eval/replay.h"
 
 #include <algorithm>
 #include <chrono>
@@ -80,16 +80,6 @@ PoseGraph resultGraph(const IncrementalLog& log, const ReplayResult& result) {
     if (entry.type != EntryType::kPrior) graph.edges.push_back(entry.edge);
   graph.fixed = {0};
   return graph;
-}
-
-double percentile(std::vector<double> values, double p) {
-  if (values.empty()) return 0.0;
-  std::sort(values.begin(), values.end());
-  const double position = std::min(100.0, std::max(0.0, p)) / 100.0 * (values.size() - 1);
-  const size_t low = static_cast<size_t>(position);
-  const size_t high = std::min(low + 1, values.size() - 1);
-  const double fraction = position - low;
-  return values[low] * (1.0 - fraction) + values[high] * fraction;
 }
 
 }  // namespace core

@@ -1,5 +1,5 @@
 // Tests for loop-closure classification counts, ATE, RPE and the TUM writer.
-#include "agnc_pgo/core/metrics.h"
+#include "agnc_pgo/eval/metrics.h"
 
 #include <cmath>
 #include <cstdio>

@@ -1,9 +1,11 @@
-#include "agnc_pgo/core/irl_io.h"
+#include "agnc_pgo/eval/irl_io.h"
 
 #include <sstream>
 #include <string>
 
 #include <gtest/gtest.h>
+
+#include "shared_datasets.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -31,6 +33,7 @@ int countEntries(const IncrementalLog& log, EntryType type) {
 }
 
 TEST(IrlIo, ReadsCsailWithOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const IncrementalLog log = readIrl(irl("CSAIL_10_random_0.irl"));
   EXPECT_EQ(log.name, "CSAIL_10_random_0");
   EXPECT_EQ(log.dimension, 2);
@@ -90,6 +93,7 @@ TEST(IrlIo, ReadsCsailWithOutliers) {
 }
 
 TEST(IrlIo, ReadsIntelWithOutliers) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const IncrementalLog log = readIrl(irl("INTEL_10_random_0.irl"));
   EXPECT_EQ(log.dimension, 2);
   EXPECT_EQ(log.numPoses(), 943);
@@ -98,6 +102,7 @@ TEST(IrlIo, ReadsIntelWithOutliers) {
 }
 
 TEST(IrlIo, ReadsSphere2500In3DWithPermutedCovariance) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const IncrementalLog log = readIrl(irl("SPHERE2500_10_random_0.irl"));
   EXPECT_EQ(log.dimension, 3);
   EXPECT_EQ(log.numPoses(), 2500);
@@ -270,6 +275,7 @@ TEST(IrlIo, MissingFileNamesTheFile) {
 }
 
 TEST(IrlIo, GraphFromIrlLogKeepsLabels) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const PoseGraph g = graphFromLog(readIrl(irl("CSAIL_10_random_0.irl")));
   EXPECT_EQ(g.dimension, 2);
   EXPECT_EQ(g.poses.size(), 1045u);

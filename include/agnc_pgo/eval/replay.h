@@ -8,8 +8,9 @@
 
 #include "agnc_pgo/core/gnc_options.h"
 #include "agnc_pgo/core/incremental_gnc.h"
-#include "agnc_pgo/core/incremental_log.h"
-#include "agnc_pgo/core/metrics.h"
+#include "agnc_pgo/eval/incremental_log.h"
+#include "agnc_pgo/core/statistics.h"  // percentile, used with replay results
+#include "agnc_pgo/eval/metrics.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -49,9 +50,6 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options);
 
 // The estimate as a graph (poses + every odometry and loop-closure edge).
 PoseGraph resultGraph(const IncrementalLog& log, const ReplayResult& result);
-
-// Percentile (0..100) of a sample by linear interpolation; 0 for no sample.
-double percentile(std::vector<double> values, double p);
 
 }  // namespace core
 }  // namespace agnc_pgo
