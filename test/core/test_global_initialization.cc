@@ -12,7 +12,6 @@
 
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
-#include "agnc_pgo/core/metrics.h"
 
 namespace agnc_pgo {
 namespace core {
