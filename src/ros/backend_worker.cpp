@@ -47,7 +47,9 @@ void BackendWorker::stop() {
 }
 
 void BackendWorker::warn(const std::string& message) {
-  ROS_WARN_STREAM("agnc_pgo: " << message);
+  // Throttled: a flood of bad messages must not flood the log; every one is
+  // counted and the latest is in ~status.last_warning.
+  ROS_WARN_STREAM_THROTTLE(1.0, "agnc_pgo: " << message);
   std::lock_guard<std::mutex> lock(counters_mutex_);
   counters_.last_warning = message;
 }
@@ -206,7 +208,7 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
       ++counters_.rejected_loop_closures;
       if (warning.find("dropped") != std::string::npos) ++counters_.dropped_loop_closures;
       counters_.last_warning = warning;
-      ROS_WARN_STREAM("agnc_pgo: " << warning);
+      ROS_WARN_STREAM_THROTTLE(1.0, "agnc_pgo: " << warning);
     }
     if (!added.empty()) {
       pending_latency_.insert(pending_latency_.end(), added.begin(), added.end());
@@ -333,10 +335,6 @@ CommandResult BackendWorker::saveTrajectory(const std::string& filename) {
   return call([this, filename]() -> CommandResult {
     if (filename.empty()) return {false, "empty filename"};
     if (graph_.numNodes() == 0) return {false, "the graph is empty"};
-    {
-      std::ofstream test(filename);
-      if (!test) return {false, "cannot write " + filename};
-    }
     std::vector<double> stamps;
     for (const ros::Time& t : graph_.stamps()) stamps.push_back(t.toSec());
     core::writeTumTrajectory(graph_.engine()->poses(), filename, stamps);
