@@ -2,12 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
-#include <fstream>
 
 #include <ros/console.h>
 
 #include "agnc_pgo/core/metrics.h"
-#include "agnc_pgo/core/replay.h"  // percentile
 
 namespace agnc_pgo {
 namespace ros_backend {
@@ -242,7 +240,7 @@ void BackendWorker::solve() {
   graph_dirty_ = true;
   publish(false);
   const double published = now();
-  for (double received : pending_latency_) latencies_ms_.push_back((published - received) * 1e3);
+  for (double received : pending_latency_) latencies_ms_.add((published - received) * 1e3);
   pending_latency_.clear();
 }
 
@@ -282,9 +280,9 @@ StatusInfo BackendWorker::status() const {
   s.last_update = last_update_;
   s.total_gnc_steps = engine->totalGncSteps();
   s.total_iterations = engine->totalIterations();
-  s.latency_p50 = core::percentile(latencies_ms_, 50);
-  s.latency_p95 = core::percentile(latencies_ms_, 95);
-  s.latency_max = core::percentile(latencies_ms_, 100);
+  s.latency_p50 = latencies_ms_.percentile(50);
+  s.latency_p95 = latencies_ms_.percentile(95);
+  s.latency_max = latencies_ms_.max();
   s.paused = paused_;
   return s;
 }
