@@ -29,6 +29,22 @@ if [ -z "$tests" ] || [ "$tests" -eq 0 ]; then
   echo "[agnc_pgo] no test ran" >&2
   exit 1
 fi
+
+# Robustness probes (README "Reliability"): SIGKILL during ~save_graph, and
+# bounded fuzzing of the file readers (AGNC_FUZZ_SECONDS each, default 30).
+set +e
+python3 "$AGNC_ROOT/scripts/durability_test.py" --trials 24 >"$AGNC_BUILD/durability.log" 2>&1
+durability_status=$?
+grep '^\[durability\] [0-9]* trials' "$AGNC_BUILD/durability.log" || tail -20 "$AGNC_BUILD/durability.log"
+bash "$AGNC_ROOT/scripts/fuzz.sh" "${AGNC_FUZZ_SECONDS:-30}"
+fuzz_status=$?
+set -e
+# Counted as two more tests in the summary line.
+tests=$((tests + 2))
+for probe_status in "$durability_status" "$fuzz_status"; do
+  [ "$probe_status" -eq 0 ] || failures=$(( ${failures:-0} + 1 ))
+done
+
 passed=$((tests - ${errors:-0} - ${failures:-0}))
 echo "${passed} passed, $(( ${errors:-0} + ${failures:-0} )) failed"
 if [ "$ctest_status" -ne 0 ] || [ "${errors:-0}" -ne 0 ] || [ "${failures:-0}" -ne 0 ]; then
