@@ -106,6 +106,16 @@ def classify(path, old, new):
     return None
 
 
+def wait_for_master(timeout):
+    """roscore takes seconds to come up on a loaded machine."""
+    import rosgraph
+    deadline = time.time() + timeout
+    while not rosgraph.Master("/agnc_pgo_probe").is_online():
+        if time.time() > deadline:
+            raise RuntimeError("roscore did not come up within %.0f s" % timeout)
+        time.sleep(0.2)
+
+
 def main():
     a = parse_arguments()
     os.environ["ROS_MASTER_URI"] = "http://localhost:%d" % a.port
@@ -116,7 +126,7 @@ def main():
     core = subprocess.Popen(["roscore", "-p", str(a.port)], stdout=log, stderr=log)
     import rospy
     try:
-        time.sleep(2.0)
+        wait_for_master(60.0)
         subprocess.check_call(["rosparam", "load", os.path.join(ROOT, "config", "default.yaml"), BACKEND])
         rospy.init_node("agnc_pgo_durability_test", anonymous=True, disable_signals=True)
         datasets = os.path.join(ROOT, "..", "shared", "datasets")

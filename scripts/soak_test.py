@@ -98,6 +98,16 @@ class TfWatch(object):
         return max((b - a for a, b in zip(times, times[1:])), default=float("nan"))
 
 
+def wait_for_master(timeout):
+    """roscore takes seconds to come up on a loaded machine."""
+    import rosgraph
+    deadline = time.time() + timeout
+    while not rosgraph.Master("/agnc_pgo_probe").is_online():
+        if time.time() > deadline:
+            raise RuntimeError("roscore did not come up within %.0f s" % timeout)
+        time.sleep(0.2)
+
+
 def main():
     a = parse_arguments()
     os.environ["ROS_MASTER_URI"] = "http://localhost:%d" % a.port
@@ -107,7 +117,7 @@ def main():
     backend = None
     import rospy
     try:
-        time.sleep(2.0)
+        wait_for_master(60.0)
         subprocess.check_call(["rosparam", "load", os.path.join(ROOT, "config", "default.yaml"), BACKEND])
         for name, value in (("keyframe_translation", "0.0"), ("keyframe_rotation", "0.0"),
                             ("keyframe_interval", "0.0"), ("stamp_tolerance", "0.001"),
