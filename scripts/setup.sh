@@ -20,6 +20,7 @@ AGNC_PACKAGES=(
   libceres-dev libsuitesparse-dev libeigen3-dev libboost-dev
   librviz-dev rviz xvfb xauth imagemagick libgl1-mesa-dri
   python3-matplotlib python3-numpy
+  clang-14 libclang-rt-14-dev
 )
 
 agnc_install_dependencies() {

@@ -32,6 +32,21 @@ if [ -z "$tests" ] || [ "$tests" -eq 0 ]; then
   exit 1
 fi
 
+# Robustness probes (README "Reliability"): SIGKILL during ~save_graph, and
+# bounded fuzzing of the file readers (AGNC_FUZZ_SECONDS each, default 30).
+# Counted as two more tests in the summary line.
+set +e
+python3 "$AGNC_ROOT/scripts/durability_test.py" --trials 24 >"$AGNC_BUILD/durability.log" 2>&1
+durability_status=$?
+grep '^\[durability\] [0-9]* trials' "$AGNC_BUILD/durability.log" || tail -20 "$AGNC_BUILD/durability.log"
+bash "$AGNC_ROOT/scripts/fuzz.sh" "${AGNC_FUZZ_SECONDS:-30}"
+fuzz_status=$?
+set -e
+tests=$((tests + 2))
+for probe_status in "$durability_status" "$fuzz_status"; do
+  [ "$probe_status" -eq 0 ] || failures=$(( ${failures:-0} + 1 ))
+done
+
 # Skipped: gtest cases that called GTEST_SKIP (their reason from the XML) and
 # rostests CMake did not register (build/skipped_tests.txt), both because the
 # shared datasets are absent.

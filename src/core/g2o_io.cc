@@ -1,5 +1,6 @@
 #include "agnc_pgo/core/g2o_io.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -9,10 +10,12 @@
 #include <limits>
 #include <map>
 #include <set>
+#include <sstream>
 #include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
+#include "agnc_pgo/core/atomic_file.h"
 #include "tokenize.h"
 
 namespace agnc_pgo {
@@ -26,6 +29,8 @@ ParseError::ParseError(const std::string& file, int line, const std::string& rea
 
 namespace {
 
+constexpr const char* kFormatTag = "agnc_pgo_g2o";
+
 // Where a token came from, so every error can name file and line.
 struct Where {
   const std::string& file;
@@ -37,22 +42,29 @@ struct Where {
 }
 
 double parseNumber(const Where& where, const std::string& token) {
-  char* end = nullptr;
-  const double value = std::strtod(token.c_str(), &end);
-  // The whole token must be consumed: "1.5x" or "" is not a number.
-  if (end == token.c_str() || *end != '\0') fail(where, "'" + token + "' is not a number");
-  if (!std::isfinite(value)) fail(where, "non-finite value '" + token + "'");
+  double value = 0.0;
+  const std::string reason = parseFiniteDouble(token, &value);
+  if (!reason.empty()) fail(where, reason);
+  return value;
+}
+
+// A pose component: finite and within kMaxAbsCoordinate.
+double parseCoordinate(const Where& where, const std::string& token) {
+  const double value = parseNumber(where, token);
+  if (std::abs(value) > kMaxAbsCoordinate) {
+    fail(where, "implausible magnitude " + quoteToken(token) + " (limit " +
+                    std::to_string(static_cast<long long>(kMaxAbsCoordinate)) + ")");
+  }
   return value;
 }
 
 int parseId(const Where& where, const std::string& token) {
-  char* end = nullptr;
-  errno = 0;
-  const long value = std::strtol(token.c_str(), &end, 10);
-  if (end == token.c_str() || *end != '\0') fail(where, "'" + token + "' is not an integer id");
-  if (value < 0) fail(where, "negative id " + token);
-  if (errno == ERANGE || value > INT_MAX) fail(where, "id " + token + " is out of range");
-  return static_cast<int>(value);
+  int value = 0;
+  const std::string reason = parseNonNegativeInt(token, &value);
+  if (reason.empty()) return value;
+  if (reason.compare(0, 8, "negative") == 0) fail(where, "negative id " + quoteToken(token));
+  if (reason.find("out of range") != std::string::npos) fail(where, "id " + quoteToken(token) + " is out of range");
+  fail(where, quoteToken(token) + " is not an integer id");
 }
 
 void expectTokenCount(const Where& where, const std::vector<std::string>& tokens, size_t count) {
@@ -74,6 +86,9 @@ Eigen::Quaterniond parseQuaternion(const Where& where, const std::vector<std::st
   Eigen::Quaterniond q(w, x, y, z);
   const double squared_norm = q.squaredNorm();
   if (!(squared_norm > 1e-24)) fail(where, "quaternion has zero norm");
+  // Components of 1e154 and more overflow the norm to inf (and normalise to
+  // NaN); anything far from unit length is not a rotation someone wrote.
+  if (!(squared_norm < 1e6)) fail(where, "quaternion norm is implausibly large");
   if (std::abs(squared_norm - 1.0) > 1e-15) q.normalize();
   return q;
 }
@@ -86,7 +101,11 @@ Eigen::MatrixXd parseInformation(const Where& where, const std::vector<std::stri
   size_t index = first;
   for (int r = 0; r < n; ++r) {
     for (int c = r; c < n; ++c) {
-      info(r, c) = info(c, r) = parseNumber(where, tokens[index++]);
+      const std::string& token = tokens[index++];
+      info(r, c) = info(c, r) = parseNumber(where, token);
+      if (std::abs(info(r, c)) > kMaxAbsInformation) {
+        fail(where, "implausible information entry " + quoteToken(token) + " (limit 1e15)");
+      }
     }
   }
   if (Eigen::LLT<Eigen::MatrixXd>(info).info() != Eigen::Success) {
@@ -119,8 +138,10 @@ class G2oReader {
 
   void parseLine(const std::string& text, int line) {
     const std::vector<std::string> tokens = tokenize(text);
-    if (tokens.empty() || tokens[0][0] == '#') return;
+    if (tokens.empty()) return;
     const Where where{name_, line};
+    if (trailer_line_ > 0) fail(where, "data after the end line (line " + std::to_string(trailer_line_) + ")");
+    if (tokens[0][0] == '#') return parseComment(where, tokens);
     const std::string& tag = tokens[0];
     if (tag == "VERTEX_SE2") {
       parseVertex2(where, tokens);
@@ -133,11 +154,13 @@ class G2oReader {
     } else if (tag == "FIX") {
       parseFix(where, tokens);
     } else {
-      fail(where, "unknown tag '" + tag + "'");
+      fail(where, "unknown tag " + quoteToken(tag));
     }
   }
 
-  PoseGraph finish() {
+  PoseGraph finish(int last_line) {
+    checkAnnouncedCounts(last_line);
+    if (vertices_.empty() && edges_.empty()) fail({name_, last_line}, "no vertices and no edges");
     PoseGraph graph;
     graph.dimension = dimension_ == 0 ? 2 : dimension_;
     if (vertices_.empty()) {
@@ -155,6 +178,43 @@ class G2oReader {
   }
 
  private:
+  // "# agnc_pgo_g2o vertices V edges E fix F" heads a file writeG2o wrote and
+  // "# agnc_pgo_g2o end" ends it; other comments are ignored.
+  void parseComment(const Where& where, const std::vector<std::string>& t) {
+    if (t[0] != "#" || t.size() < 2 || t[1] != kFormatTag) return;
+    if (t.size() == 3 && t[2] == "end") {
+      if (header_line_ == 0) fail(where, "end line without a header line");
+      trailer_line_ = where.line;
+      return;
+    }
+    if (t.size() != 8 || t[2] != "vertices" || t[4] != "edges" || t[6] != "fix")
+      fail(where, std::string("malformed header (expected '# ") + kFormatTag + " vertices V edges E fix F')");
+    if (header_line_ > 0) fail(where, "second header line (first on line " + std::to_string(header_line_) + ")");
+    if (!vertices_.empty() || !edges_.empty() || !fixes_.empty()) fail(where, "header line after data");
+    header_line_ = where.line;
+    announced_vertices_ = parseId(where, t[3]);
+    announced_edges_ = parseId(where, t[5]);
+    announced_fixes_ = parseId(where, t[7]);
+  }
+
+  // A file with a header must hold exactly what it announces and end with the
+  // end line: a save cut anywhere (even inside a number) is refused.
+  void checkAnnouncedCounts(int last_line) const {
+    if (header_line_ == 0) return;
+    const Where where{name_, last_line};
+    if (trailer_line_ == 0)
+      fail(where, std::string("file is truncated: no '# ") + kFormatTag + " end' line (header on line " +
+                      std::to_string(header_line_) + ")");
+    const auto check = [&](const char* what, int announced, size_t found) {
+      if (static_cast<size_t>(announced) != found)
+        fail(where, std::string("file is truncated or altered: header announces ") + std::to_string(announced) +
+                        " " + what + ", found " + std::to_string(found));
+    };
+    check("vertices", announced_vertices_, vertices_.size());
+    check("edges", announced_edges_, edges_.size());
+    check("FIX ids", announced_fixes_, fixes_.size());
+  }
+
   void setDimension(const Where& where, int dimension) {
     if (dimension_ == 0) {
       dimension_ = dimension;
@@ -190,9 +250,9 @@ class G2oReader {
     expectTokenCount(where, t, 5);
     setDimension(where, 2);
     const int id = parseId(where, t[1]);
-    const double x = parseNumber(where, t[2]);
-    const double y = parseNumber(where, t[3]);
-    const double theta = parseNumber(where, t[4]);
+    const double x = parseCoordinate(where, t[2]);
+    const double y = parseCoordinate(where, t[3]);
+    const double theta = parseCoordinate(where, t[4]);
     addVertex(where, id, Pose::fromSE2(x, y, theta));
   }
 
@@ -202,7 +262,7 @@ class G2oReader {
     const int from = parseId(where, t[1]);
     const int to = parseId(where, t[2]);
     const Pose z =
-        Pose::fromSE2(parseNumber(where, t[3]), parseNumber(where, t[4]), parseNumber(where, t[5]));
+        Pose::fromSE2(parseCoordinate(where, t[3]), parseCoordinate(where, t[4]), parseCoordinate(where, t[5]));
     addEdge(where, from, to, z, parseInformation(where, t, 6, 3));
   }
 
@@ -211,8 +271,8 @@ class G2oReader {
     setDimension(where, 3);
     const int id = parseId(where, t[1]);
     Pose pose;
-    pose.translation = Eigen::Vector3d(parseNumber(where, t[2]), parseNumber(where, t[3]),
-                                       parseNumber(where, t[4]));
+    pose.translation = Eigen::Vector3d(parseCoordinate(where, t[2]), parseCoordinate(where, t[3]),
+                                       parseCoordinate(where, t[4]));
     pose.rotation = parseQuaternion(where, t, 5);
     addVertex(where, id, pose);
   }
@@ -223,8 +283,8 @@ class G2oReader {
     const int from = parseId(where, t[1]);
     const int to = parseId(where, t[2]);
     Pose z;
-    z.translation = Eigen::Vector3d(parseNumber(where, t[3]), parseNumber(where, t[4]),
-                                    parseNumber(where, t[5]));
+    z.translation = Eigen::Vector3d(parseCoordinate(where, t[3]), parseCoordinate(where, t[4]),
+                                    parseCoordinate(where, t[5]));
     z.rotation = parseQuaternion(where, t, 6);
     addEdge(where, from, to, z, parseInformation(where, t, 10, 6));
   }
@@ -274,6 +334,24 @@ class G2oReader {
     } catch (const std::runtime_error& error) {
       throw std::runtime_error(name_ + ": " + error.what());
     }
+    checkComposedPoses(*graph);
+  }
+
+  // Odometry that composes beyond kMaxAbsCoordinate (or to inf) is refused at
+  // the line of the first edge that leads there.
+  void checkComposedPoses(const PoseGraph& graph) const {
+    for (size_t k = 0; k < graph.poses.size(); ++k) {
+      const Eigen::Vector3d& t = graph.poses[k].translation;
+      if (t.allFinite() && t.cwiseAbs().maxCoeff() <= kMaxAbsCoordinate) continue;
+      int line = edges_.empty() ? 0 : edges_.back().line;
+      for (const EdgeRecord& e : edges_)
+        if (std::max(e.edge.from, e.edge.to) == static_cast<int>(k) && std::abs(e.edge.from - e.edge.to) == 1) {
+          line = e.line;
+          break;
+        }
+      fail({name_, line}, "composing the odometry puts pose " + std::to_string(k) +
+                              " at an implausible position (beyond 1e9 m)");
+    }
   }
 
   const std::string& name_;
@@ -283,26 +361,16 @@ class G2oReader {
   std::map<int, int> vertex_lines_;  // id -> line of its VERTEX
   std::vector<EdgeRecord> edges_;
   std::vector<FixRecord> fixes_;
+  int header_line_ = 0, trailer_line_ = 0;
+  int announced_vertices_ = 0, announced_edges_ = 0, announced_fixes_ = 0;
 };
 
-// The yaw to print for an SE(2) rotation: yaw() may be an ulp or two away
-// from the angle that produced the quaternion, so search the neighbouring
-// doubles for one that reproduces it exactly (exact write/read round trip).
-double roundTripYaw(const Pose& pose) {
-  const double yaw = pose.yaw();
-  const auto reproduces = [&pose](double angle) {
-    return Pose::fromSE2(0.0, 0.0, angle).rotation.coeffs() == pose.rotation.coeffs();
-  };
-  double below = yaw;
-  double above = yaw;
-  for (int step = 0; step < 16; ++step) {
-    if (reproduces(below)) return below;
-    if (reproduces(above)) return above;
-    below = std::nextafter(below, -std::numeric_limits<double>::infinity());
-    above = std::nextafter(above, std::numeric_limits<double>::infinity());
-  }
-  return yaw;  // not an exact planar rotation; the nearest yaw is the best we can do
-}
+// The yaw to print for an SE(2) rotation, so that save -> load -> save is
+// byte-identical (also through the engine, which keeps an SE(2) rotation as
+// its yaw). A rotation fromSE2 made is printed as its yaw(), which fromSE2
+// turns back into exactly it. Any other (a product of rotations) is first
+// replaced by the one fromSE2 makes of its yaw, a change of an ulp at most.
+double roundTripYaw(const Pose& pose) { return Pose::fromSE2(0.0, 0.0, pose.yaw()).yaw(); }
 
 void writeUpperTriangle(const Eigen::MatrixXd& info, int n, std::ostream& out) {
   if (info.rows() != n || info.cols() != n) {
@@ -329,7 +397,7 @@ PoseGraph readG2o(std::istream& in, const std::string& name) {
   int line = 0;
   while (std::getline(in, text)) reader.parseLine(text, ++line);
   if (in.bad()) throw std::runtime_error(name + ": read error");
-  return reader.finish();
+  return reader.finish(std::max(line, 1));
 }
 
 PoseGraph readG2o(const std::string& path) {
@@ -338,15 +406,33 @@ PoseGraph readG2o(const std::string& path) {
   return readG2o(in, path);
 }
 
+// No inf or NaN may reach a file: it could not be read back.
+void checkFinite(const PoseGraph& graph) {
+  for (size_t id = 0; id < graph.poses.size(); ++id) {
+    const Pose& p = graph.poses[id];
+    if (!p.translation.allFinite() || !p.rotation.coeffs().allFinite())
+      throw std::invalid_argument("writeG2o: pose " + std::to_string(id) + " is not finite");
+  }
+  for (size_t k = 0; k < graph.edges.size(); ++k) {
+    const Edge& e = graph.edges[k];
+    if (!e.measurement.translation.allFinite() || !e.measurement.rotation.coeffs().allFinite() ||
+        !e.information.allFinite())
+      throw std::invalid_argument("writeG2o: edge " + std::to_string(k) + " is not finite");
+  }
+}
+
 void writeG2o(const PoseGraph& graph, std::ostream& out) {
   if (graph.dimension != 2 && graph.dimension != 3) {
     throw std::invalid_argument("writeG2o: dimension must be 2 or 3");
   }
+  checkFinite(graph);
   const bool planar = graph.dimension == 2;
   const std::streamsize old_precision = out.precision(std::numeric_limits<double>::max_digits10);
   const std::ios_base::fmtflags old_flags = out.flags();
   out.unsetf(std::ios_base::floatfield);  // %g-style: shortest exact form
 
+  out << "# " << kFormatTag << " vertices " << graph.poses.size() << " edges " << graph.edges.size() << " fix "
+      << graph.fixed.size() << '\n';
   for (size_t id = 0; id < graph.poses.size(); ++id) {
     const Pose& p = graph.poses[id];
     if (planar) {
@@ -371,17 +457,16 @@ void writeG2o(const PoseGraph& graph, std::ostream& out) {
     out << '\n';
   }
   for (int id : graph.fixed) out << "FIX " << id << '\n';
+  out << "# " << kFormatTag << " end\n";
 
   out.precision(old_precision);
   out.flags(old_flags);
 }
 
 void writeG2o(const PoseGraph& graph, const std::string& path) {
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("cannot open '" + path + "' for writing");
+  std::ostringstream out;
   writeG2o(graph, out);
-  out.flush();
-  if (!out) throw std::runtime_error("error writing '" + path + "'");
+  writeFileAtomically(path, out.str());
 }
 
 }  // namespace core

@@ -3,6 +3,7 @@
 #include "agnc_pgo/core/se2_logmap.h"
 
 #include <cmath>
+#include <limits>
 
 namespace agnc_pgo {
 namespace core {
@@ -27,11 +28,40 @@ Pose Pose::fromXYZRPY(double x, double y, double z, double rx, double ry, double
 }
 
 double Pose::yaw() const {
-  // Z-Y-X Euler yaw; for a pure rotation about z this is the SE(2) heading.
   const Eigen::Quaterniond& q = rotation;
+  if (q.x() == 0.0 && q.y() == 0.0) return planarYaw(q);
+  // Z-Y-X Euler yaw of a general rotation.
   const double siny = 2.0 * (q.w() * q.z() + q.x() * q.y());
   const double cosy = 1.0 - 2.0 * (q.y() * q.y() + q.z() * q.z());
   return wrapAngle(std::atan2(siny, cosy));
+}
+
+namespace {
+
+bool rebuildsExactly(const Eigen::Quaterniond& q, double angle) {
+  return Pose::fromSE2(0.0, 0.0, angle).rotation.coeffs() == q.coeffs();
+}
+
+}  // namespace
+
+// The heading of a rotation about z (every SE(2) pose), as the angle that
+// fromSE2 turns back into exactly this quaternion when there is one: the one
+// nearest 2 atan2(z, w) within a few ulps. So fromSE2(yaw()) is the identity on
+// every rotation fromSE2 made, an angle survives pose -> angle -> pose (the
+// engine's parameters) unchanged, and a saved graph loads and saves again
+// identically. Plain 2 atan2(z, w) or the Euler formula drift by an ulp per
+// round.
+double Pose::planarYaw(const Eigen::Quaterniond& q) {
+  const double estimate = wrapAngle(2.0 * std::atan2(q.z(), q.w()));
+  double below = estimate;
+  double above = estimate;
+  for (int step = 0; step < 4; ++step) {
+    if (rebuildsExactly(q, below)) return below;
+    if (step > 0 && rebuildsExactly(q, above)) return above;
+    below = std::nextafter(below, -std::numeric_limits<double>::infinity());
+    above = std::nextafter(above, std::numeric_limits<double>::infinity());
+  }
+  return estimate;
 }
 
 Pose Pose::inverse() const {

@@ -1,8 +1,11 @@
 // TUM trajectory export.
 #include "agnc_pgo/core/trajectory_io.h"
 
-#include <fstream>
+#include "agnc_pgo/core/atomic_file.h"
+
+#include <cmath>
 #include <iomanip>
+#include <sstream>
 #include <limits>
 #include <stdexcept>
 
@@ -14,18 +17,23 @@ void writeTumTrajectory(const Poses& poses, const std::string& path, const std::
     throw std::invalid_argument("writeTumTrajectory: " + std::to_string(stamps.size()) + " stamps for " +
                                 std::to_string(poses.size()) + " poses");
   }
-  std::ofstream out(path);
-  if (!out) throw std::runtime_error("writeTumTrajectory: cannot open " + path);
+  std::ostringstream out;
   // max_digits10 makes the text round-trip to the same doubles.
   out << std::setprecision(std::numeric_limits<double>::max_digits10);
   for (std::size_t k = 0; k < poses.size(); ++k) {
     const Eigen::Vector3d& t = poses[k].translation;
     const Eigen::Quaterniond& q = poses[k].rotation;
     const double stamp = stamps.empty() ? static_cast<double>(k) : stamps[k];
+    if (!t.allFinite() || !q.coeffs().allFinite() || !std::isfinite(stamp))
+      throw std::invalid_argument("writeTumTrajectory: pose " + std::to_string(k) + " is not finite");
     out << stamp << ' ' << t.x() << ' ' << t.y() << ' ' << t.z() << ' ' << q.x() << ' ' << q.y() << ' '
         << q.z() << ' ' << q.w() << '\n';
   }
-  if (!out) throw std::runtime_error("writeTumTrajectory: write to " + path + " failed");
+  try {
+    writeFileAtomically(path, out.str());  // checks every write, fsync and close (/dev/full fails)
+  } catch (const std::runtime_error& error) {
+    throw std::runtime_error(std::string("writeTumTrajectory: ") + error.what());
+  }
 }
 
 }  // namespace core

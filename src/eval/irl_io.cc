@@ -54,33 +54,33 @@ class EntryTokens {
 
   double number(const std::string& what) {
     const std::string& token = next(what);
-    char* end = nullptr;
-    const double value = std::strtod(token.c_str(), &end);
-    if (end == token.c_str() || *end != '\0') {
-      fail("'" + token + "' is not a number (" + what + ")");
+    double value = 0.0;
+    const std::string reason = parseFiniteDouble(token, &value);
+    if (!reason.empty()) fail(reason + " (" + what + ")");
+    return value;
+  }
+
+  // A pose component: finite and within kMaxAbsCoordinate.
+  double coordinate(const std::string& what) {
+    const double value = number(what);
+    if (std::abs(value) > kMaxAbsCoordinate) {
+      fail("implausible magnitude " + quoteToken(tokens_[next_ - 1]) + " (" + what + ", limit 1e9)");
     }
-    if (!std::isfinite(value)) fail("non-finite value '" + token + "' (" + what + ")");
     return value;
   }
 
   int integer(const std::string& what) {
     const std::string& token = next(what);
-    char* end = nullptr;
-    errno = 0;
-    const long value = std::strtol(token.c_str(), &end, 10);
-    if (end == token.c_str() || *end != '\0') {
-      fail("'" + token + "' is not an integer (" + what + ")");
-    }
-    if (value < 0 || value > INT_MAX || errno == ERANGE) {
-      fail(what + " " + token + " is out of range");
-    }
-    return static_cast<int>(value);
+    int value = 0;
+    const std::string reason = parseNonNegativeInt(token, &value);
+    if (!reason.empty()) fail(what + ": " + reason);
+    return value;
   }
 
   void expectEnd() const {
     if (!atEnd()) {
       fail(tag() + " has too many values (" + std::to_string(tokens_.size()) +
-           " tokens, unexpected '" + tokens_[next_] + "')");
+           " tokens, unexpected " + quoteToken(tokens_[next_]) + ")");
     }
   }
 
@@ -93,11 +93,11 @@ class EntryTokens {
 
 Pose readPose(int dimension, EntryTokens* t) {
   if (dimension == 2) {
-    const double x = t->number("x"), y = t->number("y"), theta = t->number("theta");
+    const double x = t->coordinate("x"), y = t->coordinate("y"), theta = t->coordinate("theta");
     return Pose::fromSE2(x, y, theta);
   }
-  const double x = t->number("x"), y = t->number("y"), z = t->number("z");
-  const double rx = t->number("rx"), ry = t->number("ry"), rz = t->number("rz");
+  const double x = t->coordinate("x"), y = t->coordinate("y"), z = t->coordinate("z");
+  const double rx = t->coordinate("rx"), ry = t->coordinate("ry"), rz = t->coordinate("rz");
   return Pose::fromXYZRPY(x, y, z, rx, ry, rz);
 }
 
@@ -121,8 +121,14 @@ Eigen::MatrixXd readInformation(int dimension, EntryTokens* t) {
   cov = 0.5 * (cov + cov.transpose()).eval();
   const Eigen::LLT<Eigen::MatrixXd> llt(cov);
   if (llt.info() != Eigen::Success) t->fail("covariance is not positive definite");
-  const Eigen::MatrixXd info = llt.solve(Eigen::MatrixXd::Identity(n, n));
-  return 0.5 * (info + info.transpose());
+  const Eigen::MatrixXd inverse = llt.solve(Eigen::MatrixXd::Identity(n, n));
+  const Eigen::MatrixXd info = 0.5 * (inverse + inverse.transpose());
+  // A covariance of 1e-320 inverts to inf; one near that to absurd weights.
+  if (!info.allFinite() || info.cwiseAbs().maxCoeff() > kMaxAbsInformation)
+    t->fail("covariance is too small: its information exceeds 1e15 or is not finite");
+  if (Eigen::LLT<Eigen::MatrixXd>(info).info() != Eigen::Success)
+    t->fail("covariance is numerically singular (its inverse is not positive definite)");
+  return info;
 }
 
 // Tracks which poses exist so far: entries may refer to existing poses and
@@ -143,7 +149,7 @@ class IrlReader {
     } else if (t.tag() == "LOOP") {
       entry = parseLoop(&t);
     } else {
-      t.fail("unknown entry type '" + t.tag() + "'");
+      t.fail("unknown entry type " + quoteToken(t.tag()));
     }
     t.expectEnd();
     log->entries.push_back(entry);
@@ -241,11 +247,11 @@ void readHeader(std::istream& in, const std::string& name, IncrementalLog* log, 
   log->name = trim(header[0]);
   const std::string dimension = trim(header[2]);
   if (dimension != "2" && dimension != "3") {
-    throw ParseError(name, 3, "dimension must be 2 or 3, got '" + dimension + "'");
+    throw ParseError(name, 3, "dimension must be 2 or 3, got " + quoteToken(dimension));
   }
   log->dimension = dimension == "2" ? 2 : 3;
   if (trim(header[3]) != "nonlinear") {
-    throw ParseError(name, 4, "expected 'nonlinear', got '" + trim(header[3]) + "'");
+    throw ParseError(name, 4, "expected 'nonlinear', got " + quoteToken(trim(header[3])));
   }
 }
 

@@ -5,10 +5,13 @@
 #include <cmath>
 #include <fstream>
 #include <iomanip>
+#include <sstream>
 #include <limits>
 #include <stdexcept>
 
 #include <Eigen/Geometry>
+
+#include "agnc_pgo/core/atomic_file.h"
 
 namespace agnc_pgo {
 namespace core {

@@ -50,10 +50,17 @@ void BackendGraph::reset() {
   decisions_before_overrides_.clear();
   decisions_.clear();
   updates_ = 0;
+  has_last_odometry_ = false;
 }
 
 std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe) {
   *keyframe = false;
+  if (has_last_odometry_) {
+    const double jump = (input.pose.translation - last_odometry_position_).norm();
+    if (!(jump <= parameters_.max_odometry_jump))
+      return "odometry jumps " + std::to_string(jump) + " m since the previous message (limit ~max_odometry_jump " +
+             std::to_string(parameters_.max_odometry_jump) + " m)";
+  }
   const KeyframeSelector::Decision decision = selector_.consider(input.stamp, input.pose);
   if (decision == KeyframeSelector::Decision::kStampNotIncreasing)
     return "odometry stamp " + describeStamp(input.stamp) + " does not increase (last " +
@@ -65,7 +72,10 @@ std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe
     if (accumulated_covariance_.size() == 0) accumulated_covariance_ = cov;
     else accumulated_covariance_ += cov;  // first-order: skipped messages' covariances add up
   }
-  if (decision == KeyframeSelector::Decision::kSkip) return "";
+  if (decision == KeyframeSelector::Decision::kSkip) {
+    rememberOdometry(input);
+    return "";
+  }
 
   try {
     if (engine_->numPoses() == 0) {
@@ -91,8 +101,14 @@ std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe
   matcher_.add(input.stamp);
   odom_poses_.push_back(input.pose);
   last_good_.estimate.push_back(engine_->pose(engine_->numPoses() - 1));
+  rememberOdometry(input);
   *keyframe = true;
   return "";
+}
+
+void BackendGraph::rememberOdometry(const OdometryInput& input) {
+  has_last_odometry_ = true;
+  last_odometry_position_ = input.pose.translation;
 }
 
 std::string BackendGraph::tryAddLoop(const LoopClosureInput& input, bool* added, bool* hold) {

@@ -1,6 +1,7 @@
 // agnc_pgo/BackendNodelet: wiring of topics, services and timers to the worker.
 #include "agnc_pgo/ros/backend_nodelet.h"
 
+#include <cmath>
 #include <stdexcept>
 
 #include <geometry_msgs/TransformStamped.h>
@@ -78,6 +79,8 @@ void BackendNodelet::odometryCallback(const nav_msgs::Odometry::ConstPtr& messag
   try {
     const std::string bad_pose = checkPose(message->pose.pose);
     if (!bad_pose.empty()) return worker_->rejectOdometry(bad_pose);
+    const std::string bad_position = checkPosition(message->pose.pose, parameters_.max_position);
+    if (!bad_position.empty()) return worker_->rejectOdometry(bad_position);
     if (message->header.stamp.isZero()) return worker_->rejectOdometry("zero stamp");
     if (!warned_frame_ && !message->header.frame_id.empty() && message->header.frame_id != parameters_.odom_frame) {
       warned_frame_ = true;
@@ -91,6 +94,8 @@ void BackendNodelet::odometryCallback(const nav_msgs::Odometry::ConstPtr& messag
       if (isZero(message->pose.covariance))
         return worker_->rejectOdometry("zero covariance with ~use_odometry_covariance");
       input.information = informationFromCovariance(message->pose.covariance, parameters_.dimension);
+      const std::string bad_information = checkInformation(input.information, parameters_.max_information);
+      if (!bad_information.empty()) return worker_->rejectOdometry(bad_information);
     }
     worker_->enqueueOdometry(input);
   } catch (const std::exception& e) {
@@ -103,14 +108,21 @@ void BackendNodelet::loopClosureCallback(const agnc_pgo::LoopClosure::ConstPtr& 
   try {
     const std::string bad_pose = checkPose(message->relative_pose);
     if (!bad_pose.empty()) return worker_->rejectLoopClosure(bad_pose);
+    const std::string bad_position = checkPosition(message->relative_pose, parameters_.max_position);
+    if (!bad_position.empty()) return worker_->rejectLoopClosure(bad_position);
+    // The score is stored in saved graphs; NaN there would make them unloadable.
+    if (!std::isfinite(message->score)) return worker_->rejectLoopClosure("score is NaN/Inf");
     if (message->from_stamp.isZero() || message->to_stamp.isZero())
       return worker_->rejectLoopClosure("zero from_stamp/to_stamp");
     LoopClosureInput input;
     input.from_stamp = message->from_stamp;
     input.to_stamp = message->to_stamp;
     input.measurement = toDimension(fromMsg(message->relative_pose), parameters_.dimension);
-    if (!isZero(message->covariance))
+    if (!isZero(message->covariance)) {
       input.information = informationFromCovariance(message->covariance, parameters_.dimension);
+      const std::string bad_information = checkInformation(input.information, parameters_.max_information);
+      if (!bad_information.empty()) return worker_->rejectLoopClosure(bad_information);
+    }
     input.source = message->source;
     input.score = message->score;
     input.received = received;

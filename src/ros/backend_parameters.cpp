@@ -108,6 +108,11 @@ void validate(const BackendParameters& p) {
   requirePositive(p.prior_sigma, "prior_sigma");
   requireNonNegative(p.stamp_tolerance, "stamp_tolerance");
   requireNonNegative(p.loop_closure_hold_time, "loop_closure_hold_time");
+  requirePositive(p.max_position, "max_position");
+  require(p.max_position <= 1e9, "max_position", "must be <= 1e9 (the file readers' bound)");
+  requirePositive(p.max_information, "max_information");
+  require(p.max_information <= 1e15, "max_information", "must be <= 1e15 (the file readers' bound)");
+  requirePositive(p.max_odometry_jump, "max_odometry_jump");
   require(p.optimize_iterations >= 1, "optimize_iterations", "must be >= 1");
   requirePositive(p.tf_rate, "tf_rate");
   requireNonNegative(p.tf_future_tolerance, "tf_future_tolerance");
@@ -140,6 +145,9 @@ BackendParameters readParameters(const ros::NodeHandle& private_nh, std::vector<
   getDouble(nh, "prior_sigma", &p.prior_sigma);
   getDouble(nh, "stamp_tolerance", &p.stamp_tolerance);
   getDouble(nh, "loop_closure_hold_time", &p.loop_closure_hold_time);
+  getDouble(nh, "max_position", &p.max_position);
+  getDouble(nh, "max_information", &p.max_information);
+  getDouble(nh, "max_odometry_jump", &p.max_odometry_jump);
 
   std::string text;
   try {
@@ -201,6 +209,8 @@ std::string describe(const BackendParameters& p) {
       << "  loop_closure_sigmas " << list(p.loop_closure_sigmas) << ", prior_sigma " << p.prior_sigma << "\n"
       << "  stamp_tolerance " << p.stamp_tolerance << " s, loop_closure_hold_time " << p.loop_closure_hold_time
       << " s\n"
+      << "  plausibility: max_position " << p.max_position << " m, max_information " << p.max_information
+      << ", max_odometry_jump " << p.max_odometry_jump << " m\n"
       << "  gnc: schedule " << core::toString(p.gnc.schedule) << ", distance "
       << core::toString(p.gnc.distance) << ", reset " << core::toString(p.gnc.reset) << ", shape_c "
       << p.gnc.shape_c << ", local_window " << (p.gnc.local_window ? "true" : "false")

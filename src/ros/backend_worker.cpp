@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <fstream>
 
 #include <ros/console.h>
 
@@ -259,7 +258,7 @@ void BackendWorker::solve() {
   graph_dirty_ = true;
   publish(false);
   const double published = now();
-  for (double received : pending_latency_) latencies_ms_.push_back((published - received) * 1e3);
+  for (double received : pending_latency_) latencies_ms_.add((published - received) * 1e3);
   pending_latency_.clear();
 }
 
@@ -299,9 +298,9 @@ StatusInfo BackendWorker::status() const {
   s.last_update = last_update_;
   s.total_gnc_steps = engine->totalGncSteps();
   s.total_iterations = engine->totalIterations();
-  s.latency_p50 = core::percentile(latencies_ms_, 50);
-  s.latency_p95 = core::percentile(latencies_ms_, 95);
-  s.latency_max = core::percentile(latencies_ms_, 100);
+  s.latency_p50 = latencies_ms_.percentile(50);
+  s.latency_p95 = latencies_ms_.percentile(95);
+  s.latency_max = latencies_ms_.max();
   s.paused = paused_;
   return s;
 }
@@ -352,10 +351,6 @@ CommandResult BackendWorker::saveTrajectory(const std::string& filename) {
   return call([this, filename]() -> CommandResult {
     if (filename.empty()) return {false, "empty filename"};
     if (graph_.numNodes() == 0) return {false, "the graph is empty"};
-    {
-      std::ofstream test(filename);
-      if (!test) return {false, "cannot write " + filename};
-    }
     std::vector<double> stamps;
     for (const ros::Time& t : graph_.stamps()) stamps.push_back(t.toSec());
     core::writeTumTrajectory(graph_.engine()->poses(), filename, stamps);

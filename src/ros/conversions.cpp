@@ -1,5 +1,6 @@
 #include "agnc_pgo/ros/conversions.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
@@ -25,6 +26,23 @@ std::string checkPose(const geometry_msgs::Pose& pose) {
   const double norm = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z + q.w * q.w);
   if (norm < 1e-6) return "zero quaternion";
   if (std::abs(norm - 1.0) > 0.1) return "quaternion not normalised (norm " + std::to_string(norm) + ")";
+  return "";
+}
+
+std::string checkPosition(const geometry_msgs::Pose& pose, double max_position) {
+  const auto& p = pose.position;
+  const double largest = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  if (!(largest <= max_position))
+    return "implausible position component " + std::to_string(largest) + " m (limit ~max_position " +
+           std::to_string(max_position) + " m)";
+  return "";
+}
+
+std::string checkInformation(const Eigen::MatrixXd& information, double max_information) {
+  const double largest = information.size() > 0 ? information.cwiseAbs().maxCoeff() : 0.0;
+  if (!(largest <= max_information))
+    return "implausible information entry " + std::to_string(largest) + " (covariance too small; limit ~max_information " +
+           std::to_string(max_information) + ")";
   return "";
 }
 

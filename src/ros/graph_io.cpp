@@ -1,44 +1,120 @@
 #include "agnc_pgo/ros/graph_io.h"
 
-#include <fstream>
-#include <iomanip>
 #include <sstream>
 #include <stdexcept>
+#include <sys/stat.h>
 
+#include "agnc_pgo/core/atomic_file.h"
 #include "agnc_pgo/core/g2o_io.h"
+#include "agnc_pgo/ros/graph_sidecar.h"
 
 namespace agnc_pgo {
 namespace ros_backend {
 namespace {
 
-constexpr const char* kMagic = "agnc_pgo_sidecar";
-constexpr int kVersion = 1;
+constexpr std::size_t kMaxFileBytes = std::size_t(1) << 31;  // 2 GiB: far above any real map
 
-void writePose(std::ostream& out, const core::Pose& p) {
-  out << p.translation.x() << ' ' << p.translation.y() << ' ' << p.translation.z() << ' ' << p.rotation.x()
-      << ' ' << p.rotation.y() << ' ' << p.rotation.z() << ' ' << p.rotation.w();
+bool exists(const std::string& path) {
+  struct stat info;
+  return ::stat(path.c_str(), &info) == 0;
 }
 
-core::Pose readPose(std::istream& in) {
-  double x, y, z, qx, qy, qz, qw;
-  in >> x >> y >> z >> qx >> qy >> qz >> qw;
-  core::Pose p;
-  p.translation = Eigen::Vector3d(x, y, z);
-  p.rotation = Eigen::Quaterniond(qw, qx, qy, qz);
-  return p;
+SidecarStamp toSidecar(const ros::Time& t) { return {t.sec, t.nsec}; }
+ros::Time fromSidecar(const SidecarStamp& s) { return ros::Time(s.sec, s.nsec); }
+
+Sidecar sidecarOf(const SavedGraph& g) {
+  Sidecar s;
+  s.dimension = g.dimension;
+  s.prior_value = g.prior_value;
+  s.prior_information = g.prior_information;
+  for (const ros::Time& t : g.stamps) s.stamps.push_back(toSidecar(t));
+  s.odom_poses = g.odom_poses;
+  s.odometry_edges = g.odometry.size();
+  for (const SavedLoop& l : g.loops) {
+    SidecarLoop out;
+    out.from = l.edge.from;
+    out.to = l.edge.to;
+    out.graduation = l.graduation;
+    out.mode = l.mode;
+    out.from_stamp = toSidecar(l.from_stamp);
+    out.to_stamp = toSidecar(l.to_stamp);
+    out.source = l.source;
+    out.score = l.score;
+    out.is_outlier = l.edge.is_outlier;
+    s.loops.push_back(out);
+  }
+  return s;
 }
 
-int modeToInt(core::LoopOverride m) { return static_cast<int>(m); }
-core::LoopOverride modeFromInt(int m) {
-  if (m < 0 || m > 2) throw std::runtime_error("bad override mode " + std::to_string(m));
-  return static_cast<core::LoopOverride>(m);
+SavedGraph plainG2o(const core::PoseGraph& graph, const Eigen::MatrixXd& default_prior_information) {
+  SavedGraph g;
+  g.dimension = graph.dimension;
+  g.estimate = graph.poses;
+  g.has_state = false;
+  g.prior_value = graph.poses[0];
+  g.prior_information = default_prior_information;
+  for (size_t i = 0; i < graph.poses.size(); ++i) g.stamps.emplace_back(1.0 + static_cast<double>(i));
+  g.odom_poses = graph.poses;
+  for (const core::Edge& e : graph.edges) {
+    if (e.kind == core::EdgeKind::kOdometry && e.to == e.from + 1) {
+      g.odometry.push_back(e);
+    } else {
+      SavedLoop l;
+      l.edge = e;
+      l.from_stamp = g.stamps[e.from];
+      l.to_stamp = g.stamps[e.to];
+      l.source = "g2o";
+      g.loops.push_back(l);
+    }
+  }
+  return g;
 }
 
-// Reads "KEY value..." and checks the key.
-void expect(std::istream& in, const std::string& key, const std::string& file) {
-  std::string word;
-  if (!(in >> word) || word != key)
-    throw std::runtime_error(file + ": expected '" + key + "', found '" + word + "'");
+SavedGraph combine(const core::PoseGraph& graph, const Sidecar& s) {
+  SavedGraph g;
+  g.dimension = graph.dimension;
+  g.estimate = graph.poses;
+  g.prior_value = s.prior_value;
+  g.prior_information = s.prior_information;
+  for (const SidecarStamp& t : s.stamps) g.stamps.push_back(fromSidecar(t));
+  g.odom_poses = s.odom_poses;
+  for (size_t k = 0; k < s.odometry_edges; ++k) {
+    core::Edge e = graph.edges[k];
+    e.kind = core::EdgeKind::kOdometry;
+    g.odometry.push_back(e);
+  }
+  for (size_t k = 0; k < s.loops.size(); ++k) {
+    const SidecarLoop& in = s.loops[k];
+    SavedLoop l;
+    l.edge = graph.edges[s.odometry_edges + k];
+    l.edge.kind = core::EdgeKind::kLoopClosure;
+    l.edge.is_outlier = in.is_outlier;
+    l.graduation = in.graduation;
+    l.mode = in.mode;
+    l.from_stamp = fromSidecar(in.from_stamp);
+    l.to_stamp = fromSidecar(in.to_stamp);
+    l.source = in.source;
+    l.score = in.score;
+    g.loops.push_back(l);
+  }
+  return g;
+}
+
+// The sidecar that belongs to the g2o bytes: FILE.meta, or the staged one a
+// save killed between its two renames left behind (its g2o is already in
+// place, so the new pair is complete). Throws if neither matches.
+Sidecar matchingSidecar(const std::string& path, const std::string& g2o_text, const core::PoseGraph& graph) {
+  const std::string meta = sidecarPath(path);
+  std::string reason;
+  for (const std::string& candidate : {meta, core::stagingPath(meta)}) {
+    if (!exists(candidate)) continue;
+    const Sidecar s = parseSidecar(core::readWholeFile(candidate, kMaxFileBytes), candidate);
+    const std::string mismatch = sidecarMismatch(s, g2o_text, graph);
+    if (mismatch.empty()) return s;
+    if (reason.empty()) reason = candidate + " does not belong to " + path + ": " + mismatch;
+  }
+  throw std::runtime_error(reason + " (the pair was not saved together; remove " + meta + " to load " + path +
+                           " without its state)");
 }
 
 }  // namespace
@@ -55,137 +131,29 @@ void saveGraph(const SavedGraph& g, const std::string& path) {
   graph.fixed = {0};
   for (const core::Edge& e : g.odometry) graph.edges.push_back(e);
   for (const SavedLoop& l : g.loops) graph.edges.push_back(l.edge);
-  {
-    std::ofstream test(path);
-    if (!test) throw std::runtime_error("cannot write " + path);
-  }
-  core::writeG2o(graph, path);
+  std::ostringstream g2o;
+  core::writeG2o(graph, g2o);  // throws for non-finite values
+  const std::string g2o_text = g2o.str();
+  const std::string meta_text = formatSidecar(sidecarOf(g), g2o_text);
 
+  // Both files complete on disk before either replaces its old version; a
+  // kill between the two renames leaves FILE new and FILE.meta.saving new,
+  // which loadGraph pairs by checksum.
   const std::string meta = sidecarPath(path);
-  std::ofstream out(meta);
-  if (!out) throw std::runtime_error("cannot write " + meta);
-  out << std::setprecision(17);
-  out << kMagic << ' ' << kVersion << '\n' << "dimension " << g.dimension << '\n' << "prior ";
-  writePose(out, g.prior_value);
-  const int t = static_cast<int>(g.prior_information.rows());
-  out << ' ' << t;
-  for (int r = 0; r < t; ++r)
-    for (int c = 0; c < t; ++c) out << ' ' << g.prior_information(r, c);
-  out << '\n' << "nodes " << n << '\n';
-  for (size_t i = 0; i < n; ++i) {
-    out << "NODE " << i << ' ' << g.stamps[i].sec << ' ' << g.stamps[i].nsec << ' ';
-    writePose(out, g.odom_poses[i]);
-    out << '\n';
-  }
-  out << "odometry_edges " << g.odometry.size() << '\n' << "loops " << g.loops.size() << '\n';
-  for (size_t k = 0; k < g.loops.size(); ++k) {
-    const SavedLoop& l = g.loops[k];
-    const core::GraduationState& s = l.graduation;
-    out << "LOOP " << k << ' ' << l.edge.from << ' ' << l.edge.to << ' ' << modeToInt(l.mode) << ' ' << s.mu
-        << ' ' << s.step << ' ' << s.init_step << ' ' << s.mu_init << ' ' << s.alpha << ' ' << s.steps_at_one
-        << ' ' << (s.graduating ? 1 : 0) << ' ' << l.from_stamp.sec << ' ' << l.from_stamp.nsec << ' '
-        << l.to_stamp.sec << ' ' << l.to_stamp.nsec << ' ' << l.score << ' ' << (l.edge.is_outlier ? 1 : 0)
-        << ' ' << l.source.size() << ' ' << l.source << '\n';
-  }
-  if (!out) throw std::runtime_error("error writing " + meta);
+  core::stageFile(path, g2o_text);
+  core::stageFile(meta, meta_text);
+  core::commitStagedFile(path);
+  core::commitStagedFile(meta);
 }
 
 SavedGraph loadGraph(const std::string& path, const Eigen::MatrixXd& default_prior_information) {
-  core::PoseGraph graph = core::readG2o(path);  // throws ParseError naming file:line
-  SavedGraph g;
-  g.dimension = graph.dimension;
-  g.estimate = graph.poses;
-  const size_t n = graph.poses.size();
-  if (n == 0) throw std::runtime_error(path + ": no poses");
-
-  std::ifstream in(sidecarPath(path));
-  if (!in) {
-    // Plain g2o: synthetic stamps, edges classified by |i - j|.
-    g.has_state = false;
-    g.prior_value = graph.poses[0];
-    g.prior_information = default_prior_information;
-    for (size_t i = 0; i < n; ++i) g.stamps.emplace_back(1.0 + static_cast<double>(i));
-    g.odom_poses = graph.poses;
-    for (const core::Edge& e : graph.edges) {
-      if (e.kind == core::EdgeKind::kOdometry && e.to == e.from + 1) {
-        g.odometry.push_back(e);
-      } else {
-        SavedLoop l;
-        l.edge = e;
-        l.from_stamp = g.stamps[e.from];
-        l.to_stamp = g.stamps[e.to];
-        l.source = "g2o";
-        g.loops.push_back(l);
-      }
-    }
-    return g;
-  }
-
+  const std::string g2o_text = core::readWholeFile(path, kMaxFileBytes);
+  std::istringstream in(g2o_text);
+  const core::PoseGraph graph = core::readG2o(in, path);  // throws ParseError naming file:line
+  if (graph.poses.empty()) throw std::runtime_error(path + ": no poses");
   const std::string meta = sidecarPath(path);
-  std::string magic;
-  int version = 0;
-  in >> magic >> version;
-  if (magic != kMagic || version != kVersion) throw std::runtime_error(meta + ": not an agnc_pgo sidecar (v1)");
-  expect(in, "dimension", meta);
-  in >> g.dimension;
-  if (g.dimension != graph.dimension) throw std::runtime_error(meta + ": dimension differs from the g2o file");
-  expect(in, "prior", meta);
-  g.prior_value = readPose(in);
-  int t = 0;
-  in >> t;
-  if (t != graph.tangentDimension()) throw std::runtime_error(meta + ": bad prior size");
-  g.prior_information.resize(t, t);
-  for (int r = 0; r < t; ++r)
-    for (int c = 0; c < t; ++c) in >> g.prior_information(r, c);
-  expect(in, "nodes", meta);
-  size_t nodes = 0;
-  in >> nodes;
-  if (!in || nodes != n) throw std::runtime_error(meta + ": node count differs from the g2o file");
-  for (size_t i = 0; i < n; ++i) {
-    expect(in, "NODE", meta);
-    size_t id;
-    uint32_t sec, nsec;
-    in >> id >> sec >> nsec;
-    if (!in || id != i) throw std::runtime_error(meta + ": bad NODE line " + std::to_string(i));
-    g.stamps.emplace_back(sec, nsec);
-    g.odom_poses.push_back(readPose(in));
-  }
-  size_t odometry = 0, loops = 0;
-  expect(in, "odometry_edges", meta);
-  in >> odometry;
-  expect(in, "loops", meta);
-  in >> loops;
-  if (!in || odometry + loops != graph.edges.size())
-    throw std::runtime_error(meta + ": edge counts differ from the g2o file");
-  for (size_t k = 0; k < odometry; ++k) {
-    core::Edge e = graph.edges[k];
-    e.kind = core::EdgeKind::kOdometry;
-    g.odometry.push_back(e);
-  }
-  for (size_t k = 0; k < loops; ++k) {
-    SavedLoop l;
-    l.edge = graph.edges[odometry + k];
-    l.edge.kind = core::EdgeKind::kLoopClosure;
-    expect(in, "LOOP", meta);
-    size_t index;
-    int from, to, mode, graduating, outlier;
-    size_t source_length;
-    core::GraduationState& s = l.graduation;
-    in >> index >> from >> to >> mode >> s.mu >> s.step >> s.init_step >> s.mu_init >> s.alpha >>
-        s.steps_at_one >> graduating >> l.from_stamp.sec >> l.from_stamp.nsec >> l.to_stamp.sec >>
-        l.to_stamp.nsec >> l.score >> outlier >> source_length;
-    if (!in || index != k || from != l.edge.from || to != l.edge.to)
-      throw std::runtime_error(meta + ": LOOP " + std::to_string(k) + " does not match the g2o edge");
-    s.graduating = graduating != 0;
-    l.edge.is_outlier = outlier != 0;
-    l.mode = modeFromInt(mode);
-    in.get();  // the separating space
-    l.source.resize(source_length);
-    if (source_length > 0) in.read(&l.source[0], static_cast<std::streamsize>(source_length));
-    if (!in) throw std::runtime_error(meta + ": truncated LOOP " + std::to_string(k));
-    g.loops.push_back(l);
-  }
-  return g;
+  if (!exists(meta) && !exists(core::stagingPath(meta))) return plainG2o(graph, default_prior_information);
+  return combine(graph, matchingSidecar(path, g2o_text, graph));
 }
 
 }  // namespace ros_backend

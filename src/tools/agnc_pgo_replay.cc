@@ -3,7 +3,9 @@
 // runtime. See --help.
 #include <sys/resource.h>
 
+#include <cerrno>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -51,6 +53,29 @@ double parseNumber(const std::string& flag, const std::string& text) {
   return v;
 }
 
+// A whole non-negative decimal integer no larger than `max` ("-1", "1.5",
+// "1e3" and overflow are refused rather than wrapped or truncated).
+unsigned long long parseCount(const std::string& flag, const std::string& text, unsigned long long max) {
+  char* end = nullptr;
+  errno = 0;
+  const unsigned long long v = std::strtoull(text.c_str(), &end, 10);
+  const bool digits_only = !text.empty() && text.find_first_not_of("0123456789") == std::string::npos;
+  if (!digits_only || *end != '\0' || errno == ERANGE || v > max)
+    throw std::invalid_argument(flag + " expects a non-negative integer up to " + std::to_string(max) + ", got '" +
+                                text + "'");
+  return v;
+}
+
+int parseInt(const std::string& flag, const std::string& text) {
+  return static_cast<int>(parseCount(flag, text, static_cast<unsigned long long>(INT_MAX)));
+}
+
+double parsePercent(const std::string& flag, const std::string& text) {
+  const double v = parseNumber(flag, text);
+  if (!(v >= 0.0 && v < 100.0)) throw std::invalid_argument(flag + " must be in [0, 100), got '" + text + "'");
+  return v;
+}
+
 Arguments parseArguments(int argc, char** argv) {
   Arguments a;
   for (int i = 1; i < argc; ++i) {
@@ -60,8 +85,8 @@ Arguments parseArguments(int argc, char** argv) {
       return argv[++i];
     };
     if (flag == "--input") a.input = value();
-    else if (flag == "--outliers") a.outliers = parseNumber(flag, value());
-    else if (flag == "--seed") a.seed = static_cast<unsigned long>(parseNumber(flag, value()));
+    else if (flag == "--outliers") a.outliers = parsePercent(flag, value());
+    else if (flag == "--seed") a.seed = static_cast<unsigned long>(parseCount(flag, value(), ULONG_MAX));
     else if (flag == "--schedule") a.gnc.schedule = parseSchedule(value());
     else if (flag == "--ground-truth") a.ground_truth = value();
     else if (flag == "--output") a.output = value();
@@ -69,15 +94,15 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--distance") a.gnc.distance = parseDistanceConvention(value());
     else if (flag == "--reset") a.gnc.reset = parseResetPolicy(value());
     else if (flag == "--full-window") a.gnc.local_window = false;
-    else if (flag == "--max-window") a.gnc.max_window_poses = static_cast<int>(parseNumber(flag, value()));
-    else if (flag == "--settle") a.gnc.max_settle_iterations = static_cast<int>(parseNumber(flag, value()));
+    else if (flag == "--max-window") a.gnc.max_window_poses = parseInt(flag, value());
+    else if (flag == "--settle") a.gnc.max_settle_iterations = parseInt(flag, value());
     else if (flag == "--no-global-refinement") a.gnc.global_refinement = false;
     else if (flag == "--no-trust-region") a.gnc.trust_region = false;
     else if (flag == "--trust-region-radius") a.gnc.trust_region_radius = parseNumber(flag, value());
     else if (flag == "--max-trust-region-radius") a.gnc.max_trust_region_radius = parseNumber(flag, value());
-    else if (flag == "--iterations-per-step") a.gnc.max_iterations_per_step = static_cast<int>(parseNumber(flag, value()));
+    else if (flag == "--iterations-per-step") a.gnc.max_iterations_per_step = parseInt(flag, value());
     else if (flag == "--reference-alpha") a.gnc.reference_alpha_direction = true;
-    else if (flag == "--support-radius") a.gnc.support_radius = static_cast<int>(parseNumber(flag, value()));
+    else if (flag == "--support-radius") a.gnc.support_radius = parseInt(flag, value());
     else if (flag == "--dormant-weight") a.gnc.dormant_weight = parseNumber(flag, value());
     else if (flag == "--help" || flag == "-h") {
       std::cout << kUsage;

@@ -1,6 +1,7 @@
 #!/usr/bin/python3
-"""Loop closures with NaN, a zero quaternion, a non-PD covariance or unknown
-stamps, and odometry whose stamp goes backwards, are rejected and counted;
+"""Loop closures with NaN, a zero quaternion, a non-PD covariance, unknown
+stamps, a NaN score, a 1e308 translation or a 1e-300 covariance, and odometry
+whose stamp goes backwards, at x = 1e308 or jumping 495 m, are rejected and counted;
 the back-end keeps running and the graph is unchanged."""
 import math
 import sys
@@ -72,7 +73,14 @@ class BadInput(unittest.TestCase):
         between = loop(5, 0, -5.0)
         between.from_stamp = rospy.Time(T0 + 2.5)  # between keyframes: unknown
         future = loop(9, 0, -9.0)                  # newer than every keyframe: held, then dropped
-        for m in (nan, zero_q, bad_cov, between, future):
+        nan_score = loop(5, 1, -4.0)
+        nan_score.score = float("nan")     # would make every later save unloadable
+        huge = loop(5, 1, 1e308)           # finite, but cancels every other digit of the map
+        tiny = [0.0] * 36
+        for k in range(6):
+            tiny[7 * k] = 1e-300           # information 1e300
+        tiny_cov = loop(5, 1, -4.0, tiny)
+        for m in (nan, zero_q, bad_cov, between, future, nan_score, huge, tiny_cov):
             self.loops.publish(m)
         self.odom.publish(odometry(6, 6.0, stamp=T0 + 3.0))  # stamp going backwards
         nan_odom = odometry(7, 0.0, stamp=T0 + 20)
@@ -81,14 +89,16 @@ class BadInput(unittest.TestCase):
         zero_odom = odometry(8, 0.0, stamp=T0 + 21)
         zero_odom.pose.pose.orientation.w = 0.0
         self.odom.publish(zero_odom)
+        self.odom.publish(odometry(9, 1e308, stamp=T0 + 22))  # beyond ~max_position
+        self.odom.publish(odometry(10, 500.0, stamp=T0 + 23))  # jumps 495 m (~max_odometry_jump 100)
 
-        s = self.status.wait(lambda m: m.rejected_loop_closures == 5 and m.dropped_loop_closures == 1 and
-                             m.rejected_odometry == 3, 10, "rejections counted")
+        s = self.status.wait(lambda m: m.rejected_loop_closures == 8 and m.dropped_loop_closures == 1 and
+                             m.rejected_odometry == 5, 10, "rejections counted")
         self.assertEqual(s.nodes, 6)
         self.assertEqual(s.loop_closures, 1)
         self.assertEqual(s.held_loop_closures, 0)
-        self.assertEqual(s.loop_closure_messages, 6)
-        self.assertEqual(s.odometry_messages, 9)
+        self.assertEqual(s.loop_closure_messages, 9)
+        self.assertEqual(s.odometry_messages, 11)
         self.assertEqual(s.failed_updates, 0)
         self.assertNotEqual(s.last_warning, "")
 

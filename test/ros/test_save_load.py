@@ -2,16 +2,18 @@
 """~save_graph -> ~reset -> ~load_graph restores an identical graph: same
 nodes (stamps), edges, loop-closure states, estimate within 1e-9."""
 import os
+import shutil
 import sys
 import tempfile
 import unittest
+import zlib
 
 import rospy
 import rostest
 from std_srvs.srv import Trigger
 
 from agnc_pgo.msg import GraphStatus, PoseGraph
-from agnc_pgo.srv import LoadGraph, SaveGraph, SetLoopClosureStatus
+from agnc_pgo.srv import LoadGraph, SaveGraph, SaveTrajectory, SetLoopClosureStatus
 import agnc_test_utils as u
 
 
@@ -24,6 +26,23 @@ FORCE_OUTLIER = SetLoopClosureStatus._request_class.FORCE_OUTLIER
 # (which may have arrived before the answer).
 START_TIMEOUT = 60.0  # player done, back-end settled
 TIMEOUT = 30.0        # services, graphs after a command
+
+
+def resign(meta):
+    """The sidecar text with a valid closing checksum (as a crafted file would have)."""
+    body = meta[:meta.rindex(b"checksum ")]
+    return body + b"checksum %08x\n" % (zlib.crc32(body) & 0xffffffff)
+
+
+def replace_field(meta, line_prefix, index, value):
+    lines = meta.split(b"\n")
+    for k, line in enumerate(lines):
+        if line.startswith(line_prefix):
+            fields = line.split(b" ")
+            fields[index] = value
+            lines[k] = b" ".join(fields)
+            return resign(b"\n".join(lines))
+    raise AssertionError("no line %r" % line_prefix)
 
 
 def edge_key(e):
@@ -102,6 +121,62 @@ class SaveLoad(unittest.TestCase):
         st = status.wait(lambda m: m.nodes > 0, TIMEOUT, "status after load")
         self.assertEqual(st.nodes, len(before.nodes))
         self.assertEqual(st.loop_closures, s.loop_closures)
+
+        # save -> load -> save is byte-identical (g2o and sidecar).
+        again = os.path.join(directory, "again.g2o")
+        r = save(filename=again)
+        self.assertTrue(r.success, r.message)
+        for suffix in ("", ".meta"):
+            with open(filename + suffix, "rb") as a, open(again + suffix, "rb") as b:
+                self.assertEqual(a.read(), b.read(), "file%s changed on save -> load -> save" % suffix)
+        self.check_hostile_files(directory, filename, load, status, graph, st)
+
+        # A write error is an error (the stream is checked after its last flush).
+        save_trajectory = rospy.ServiceProxy(u.BACKEND + "/save_trajectory", SaveTrajectory)
+        r = save_trajectory(filename="/dev/full")
+        self.assertFalse(r.success, r.message)
+        self.assertIn("No space left on device", r.message)
+        r = save(filename="/dev/full")
+        self.assertFalse(r.success, r.message)
+        shutil.rmtree(directory)
+
+    def check_hostile_files(self, directory, good, load, status, graph, loaded_status):
+        """Each damaged, mismatched or out-of-domain pair: success false, graph unchanged."""
+        with open(good, "rb") as f:
+            g2o = f.read()
+        with open(good + ".meta", "rb") as f:
+            meta = f.read()
+        cut = g2o[:g2o.rindex(b"EDGE_SE2")]  # cut at a line end in the loop-closure section
+        cases = [
+            ("truncated g2o + sidecar", cut, meta, "truncated"),
+            ("truncated g2o alone", cut, None, "truncated"),
+            ("truncated sidecar", g2o, meta[:-20], "truncated"),
+            ("count wrap-around", g2o, replace_field(meta, b"odometry_edges", 1, b"-1"), "outside"),
+            ("mu = 7", g2o, replace_field(meta, b"LOOP 0 ", 5, b"7"), "mu 7"),
+            ("step = INT_MAX", g2o, replace_field(meta, b"LOOP 0 ", 6, b"2147483647"), "step 2147483647"),
+            ("zero quaternion", g2o, replace_field(replace_field(replace_field(replace_field(
+                meta, b"NODE 1 ", 7, b"0"), b"NODE 1 ", 8, b"0"), b"NODE 1 ", 9, b"0"), b"NODE 1 ", 10, b"0"),
+             "not unit length"),
+            ("huge source", g2o, replace_field(meta, b"LOOP 0 ", 18, b"=" + b"x" * 100000), "source is longer"),
+            ("NaN score", g2o, replace_field(meta, b"LOOP 0 ", 16, b"nan"), "non-finite"),
+            ("sidecar of another g2o", g2o.replace(b"VERTEX_SE2 1 ", b"VERTEX_SE2 1  ", 1), meta, "does not belong"),
+        ]
+        for k, (what, g2o_bytes, meta_bytes, reason) in enumerate(cases):
+            path = os.path.join(directory, "hostile%d.g2o" % k)
+            with open(path, "wb") as f:
+                f.write(g2o_bytes)
+            if meta_bytes is not None:
+                with open(path + ".meta", "wb") as f:
+                    f.write(meta_bytes)
+            r = load(filename=path)
+            self.assertFalse(r.success, what + ": " + r.message)
+            self.assertIn(reason, r.message, what)
+            self.assertIn("graph unchanged", r.message, what)
+            self.assertLess(len(r.message), 1000, what)
+        st = status.wait(lambda m: m.nodes > 0, TIMEOUT, "status after hostile loads")
+        self.assertEqual(st.nodes, loaded_status.nodes)
+        self.assertEqual(st.loop_closures, loaded_status.loop_closures)
+        self.assertEqual(len(graph.msg.nodes), loaded_status.nodes)
 
 
 if __name__ == "__main__":

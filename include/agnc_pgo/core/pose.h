@@ -22,6 +22,9 @@ struct Pose {
   static Pose identity() { return Pose(); }
 
   double yaw() const;
+  // yaw() of a rotation about z: an angle fromSE2 turns back into exactly q
+  // when there is one (within a few ulps of 2 atan2(z, w)).
+  static double planarYaw(const Eigen::Quaterniond& q);
   Pose inverse() const;
   Pose operator*(const Pose& other) const;
 

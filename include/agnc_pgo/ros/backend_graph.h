@@ -102,6 +102,7 @@ class BackendGraph {
   std::string tryAddLoop(const LoopClosureInput& input, bool* added, bool* hold);
   void rememberGood();
   void rollBack();
+  void rememberOdometry(const OdometryInput& input);
   // Runs a solve; a throw or a non-finite estimate rolls back to the last
   // good state and reports `what` failed.
   bool guardedSolve(const std::string& what, const std::function<core::UpdateStats()>& solve,
@@ -115,6 +116,11 @@ class BackendGraph {
   KeyframeSelector selector_;
   LoopClosureMatcher matcher_;
   core::Poses odom_poses_;
+  // The last accepted odometry message's position (keyframe or not), for
+  // ~max_odometry_jump; compared with the last *accepted* one so that a
+  // single wild message does not get its well-behaved successor rejected.
+  bool has_last_odometry_ = false;
+  Eigen::Vector3d last_odometry_position_ = Eigen::Vector3d::Zero();
   std::vector<LoopMeta> loop_meta_;
   std::deque<LoopClosureInput> held_;
   Eigen::MatrixXd accumulated_covariance_;  // message covariances of skipped odometry

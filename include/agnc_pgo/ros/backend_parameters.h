@@ -37,6 +37,10 @@ struct BackendParameters {
   double prior_sigma = 1e-4;               // gauge on the first keyframe (all six components)
   double stamp_tolerance = 0.005;          // [s] loop-closure stamp -> keyframe matching
   double loop_closure_hold_time = 2.0;     // [s] wait for not-yet-seen keyframes, then drop
+  // Plausibility bounds: messages beyond them are rejected (ROS_WARN + counter).
+  double max_position = 1e6;               // [m] |component| of an odometry position or loop-closure translation
+  double max_information = 1e12;           // |entry| of an information matrix from a message covariance
+  double max_odometry_jump = 100.0;        // [m] between consecutive accepted odometry messages
   core::GncOptions gnc;
   int optimize_iterations = 20;            // ~optimize service: max Gauss-Newton iterations
   double tf_rate = 20.0;                   // [Hz] map -> odom broadcast

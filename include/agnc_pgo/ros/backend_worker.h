@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "agnc_pgo/ros/backend_graph.h"
+#include "agnc_pgo/ros/latency_histogram.h"
 
 namespace agnc_pgo {
 namespace ros_backend {
@@ -124,7 +125,7 @@ class BackendWorker {
   double last_status_publish_ = -1e9;
   ros::Time last_update_;
   std::vector<double> pending_latency_;  // receive times of loop closures not yet published
-  std::vector<double> latencies_ms_;
+  LatencyHistogram latencies_ms_;  // bounded: a status costs O(1) however long the run
 
   struct WarningThrottle {
     double last_logged = -1e9;

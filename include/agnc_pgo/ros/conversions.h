@@ -25,6 +25,11 @@ const std::vector<int>& rep103Indices(int dimension);
 
 // Empty if the pose is usable, else why not (NaN/Inf, zero quaternion).
 std::string checkPose(const geometry_msgs::Pose& pose);
+// "" or why the position is implausible: a component beyond max_position [m]
+// (1e308 is finite, but composing it cancels every other digit of the map).
+std::string checkPosition(const geometry_msgs::Pose& pose, double max_position);
+// "" or why an information matrix is implausible (an entry beyond max_information).
+std::string checkInformation(const Eigen::MatrixXd& information, double max_information);
 // Normalises the quaternion. Call checkPose first.
 core::Pose fromMsg(const geometry_msgs::Pose& pose);
 geometry_msgs::Pose toMsg(const core::Pose& pose);
