@@ -22,6 +22,13 @@ run only with --sphere (about 9 minutes each). --quick keeps only the CSAIL
 and Intel logs. The raw output of every run (metrics.json, latency.csv,
 estimate.g2o, ...) stays in --work (default build/benchmark/).
 
+--peers runs GTSAM beside agnc_pgo on the final graph of every input
+(scripts/gtsam_peer.py, in a venv the benchmark makes with pip, default
+build/peer_venv/, and a process of its own): batch GNC (GncLMOptimizer, TLS)
+with its precision, recall, ATE and CPU time, and with --peers gnc,isam2 also
+iSAM2 fed only the true loop closures (the speed floor of an exact
+incremental solver). GTSAM is never a dependency of agnc_pgo itself.
+
 Timings need a quiet machine: keep --jobs 1 for numbers you publish.
 Needs only Python 3 with numpy and matplotlib (Debian's python3-matplotlib);
 where perf stat can count (Debian's linux-perf, installed by benchmark.sh),
@@ -58,6 +65,9 @@ SCRIPTS = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.dirname(SCRIPTS)
 SHARED = os.path.join(os.path.dirname(REPO), "shared")
 DEFAULT_TOOL = os.path.join(REPO, "build", "devel", "lib", "agnc_pgo", "agnc_pgo_replay")
+PEER_SCRIPT = os.path.join(SCRIPTS, "gtsam_peer.py")
+DEFAULT_PEER_VENV = os.path.join(REPO, "build", "peer_venv")
+PEERS = ("gnc", "isam2")
 
 SCHEDULES = ("agnc", "agnc-fixed", "risam", "none")
 OUTLIER_PERCENTS = (10, 30, 50)
@@ -239,6 +249,8 @@ class Result:
     runtimes: List[float] = dataclasses.field(default_factory=list)
     run_dir: Optional[str] = None     # directory of that run (latency.csv, ...)
     deterministic: bool = True        # same solves/steps/P/R in every repeat
+    peer: Optional[dict] = None       # gtsam_peer.py's report on that run's final graph
+    peer_status: Optional[str] = None  # None: no peer ran; "ok", "timeout" or "failed: ..."
 
     @property
     def ok(self):
@@ -322,7 +334,71 @@ def run_cell(cell, args):
     median = statistics.median(m["runtime_s"] for m, _ in runs)
     metrics, run_dir = min(runs, key=lambda r: abs(r[0]["runtime_s"] - median))
     signature = {tuple(m.get(k) for k in ("solves", "gnc_steps", "precision", "recall")) for m, _ in runs}
-    return Result(cell, "ok", metrics, [m["runtime_s"] for m, _ in runs], run_dir, len(signature) == 1)
+    result = Result(cell, "ok", metrics, [m["runtime_s"] for m, _ in runs], run_dir, len(signature) == 1)
+    if cell.name in args.peer_cells:
+        result.peer, result.peer_status = run_peer(cell, run_dir, args)
+    return result
+
+
+# --------------------------------------------------------------------------
+# GTSAM peers (--peers): a venv of their own, a process of their own
+# --------------------------------------------------------------------------
+
+def peer_cells(cells, peers):
+    """Names of the cells whose final graph the peers solve: one cell per
+    input (the schedules of an input replay the same graph)."""
+    if not peers:
+        return set()
+    first = {}
+    for cell in cells:
+        first.setdefault(cell.input_key, cell.name)
+    return set(first.values())
+
+
+def peer_venv_python(venv):
+    """The python of the peers' venv, made on first use (python3 -m venv, pip
+    install gtsam numpy from PyPI). GTSAM is a benchmark peer only: nothing
+    of agnc_pgo's build or tests needs it. Raises RuntimeError saying why."""
+    python = os.path.join(venv, "bin", "python")
+
+    def has_gtsam():
+        return os.access(python, os.X_OK) and subprocess.run(
+            [python, "-c", "import gtsam, numpy"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode == 0
+
+    if has_gtsam():
+        return python
+    print(f"making the GTSAM peer venv {shown_path(venv)} (python3 -m venv; pip install gtsam numpy)", flush=True)
+    for command in ([sys.executable, "-m", "venv", venv],
+                    [python, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", "gtsam", "numpy"]):
+        proc = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        if proc.returncode != 0:
+            last = (proc.stdout.strip().splitlines() or [f"exit code {proc.returncode}"])[-1]
+            raise RuntimeError(f"{' '.join(command[:3])} ... failed: {last}")
+    if not has_gtsam():
+        raise RuntimeError(f"{shown_path(venv)}: gtsam does not import after pip install")
+    return python
+
+
+def run_peer(cell, run_dir, args):
+    """gtsam_peer.py on a replay's output: (report dict, "ok") or (None, why not)."""
+    output = os.path.join(run_dir, "peer.json")
+    command = [args.peer_python, PEER_SCRIPT, "--run", run_dir, "--output", output]
+    if cell.ground_truth:
+        command += ["--ground-truth", cell.ground_truth]
+    if "isam2" in args.peers:
+        command.append("--isam2")
+    try:
+        proc = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                              timeout=args.timeout)
+    except subprocess.TimeoutExpired:
+        return None, f"timeout ({args.timeout:g} s)"
+    if proc.returncode != 0:
+        return None, "failed: " + (proc.stderr.strip().splitlines() or [f"exit code {proc.returncode}"])[-1]
+    try:
+        with open(output) as f:
+            return json.load(f), "ok"
+    except (OSError, ValueError) as e:
+        return None, f"failed: unreadable peer.json ({e})"
 
 
 class Progress:
@@ -340,9 +416,19 @@ class Progress:
                 m = result.metrics
                 note = "" if result.deterministic else "  (repeats differ in solves/steps/P/R)"
                 print(f"{head} {result.runtime:9.2f} s  P {fmt(m.get('precision'), 3)}  "
-                      f"R {fmt(m.get('recall'), 3)}{note}", flush=True)
+                      f"R {fmt(m.get('recall'), 3)}{note}{peer_note(result)}", flush=True)
             else:
                 print(f"{head} {result.status}", flush=True)
+
+
+def peer_note(result):
+    if result.peer_status is None:
+        return ""
+    if result.peer is None:
+        return f"  | GTSAM: {result.peer_status}"
+    p = result.peer
+    return (f"  | GTSAM GNC {fmt(p.get('gnc_cpu_s'), 2)} s CPU  P {fmt(p.get('gnc_precision'), 3)}  "
+            f"R {fmt(p.get('gnc_recall'), 3)}")
 
 
 def run_all(cells, args):
@@ -576,6 +662,70 @@ def accuracy_section(results):
             + markdown_table(ratio_columns, ratio_rows))
 
 
+PEER_COLUMNS = ("input", "outliers %", "seed", "schedule", "agnc_pgo precision", "agnc_pgo recall",
+                "agnc_pgo ATE m", "agnc_pgo ATE vs optimum m", "agnc_pgo ATE vs peer's optimum m",
+                "agnc_pgo runtime s", "agnc_pgo max update ms", "GNC precision", "GNC recall", "GNC ATE m",
+                "GNC ATE vs peer's optimum m", "GNC CPU s", "GNC CPU / agnc_pgo runtime",
+                "peer's optimum χ² (start)")
+ISAM2_COLUMNS = ("iSAM2 CPU s", "iSAM2 max update ms", "iSAM2 ATE vs peer's optimum m")
+
+
+def optimum_note(peer):
+    """The outlier-free optimum's χ², its start, and the starts that ended higher."""
+    starts = peer.get("reference_chi2_by_start") or {}
+    if not starts:
+        return DASH
+    best = min(starts, key=starts.get)
+    worse = [f"{name} {value:.4g}" for name, value in starts.items()
+             if value > starts[best] * (1 + 1e-6) + 1e-9]
+    return f"{starts[best]:.4g} ({best}" + (f"; {', '.join(worse)}" if worse else "") + ")"
+
+
+def peer_row(r, with_isam2):
+    c, m, p = r.cell, r.metrics, r.peer
+    row = [f"`{c.label}`", fmt(c.outliers, 0), DASH if c.seed is None else str(c.seed), c.schedule,
+           fmt(m.get("precision"), 3), fmt(m.get("recall"), 3), fmt(m.get("ate_m"), 3),
+           fmt(m.get("ate_vs_inlier_optimum_m"), 3)]
+    if p is None:
+        return row + [DASH, fmt(r.runtime, 3), fmt(m.get("update_ms_max"), 1), r.peer_status] \
+            + [""] * (len(PEER_COLUMNS) + (len(ISAM2_COLUMNS) if with_isam2 else 0) - len(row) - 4)
+    row += [fmt(p.get("replay_ate_vs_optimum_m"), 3), fmt(r.runtime, 3), fmt(m.get("update_ms_max"), 1),
+            fmt(p.get("gnc_precision"), 3), fmt(p.get("gnc_recall"), 3),
+            fmt(p.get("gnc_ate_vs_ground_truth_m"), 3), fmt(p.get("gnc_ate_vs_optimum_m"), 3),
+            fmt(p.get("gnc_cpu_s"), 2), fmt(ratio(p.get("gnc_cpu_s"), r.runtime), 1), optimum_note(p)]
+    if with_isam2:
+        row += [fmt(p.get("isam2_cpu_s"), 2), fmt(p.get("isam2_update_ms_max"), 1),
+                fmt(p.get("isam2_ate_vs_optimum_m"), 3)]
+    return row
+
+
+def peer_section(results, peers):
+    ran = [r for r in results if r.ok and r.peer_status is not None]
+    if not ran:
+        return ["No peer ran."]
+    with_isam2 = "isam2" in peers
+    columns = PEER_COLUMNS + (ISAM2_COLUMNS if with_isam2 else ())
+    versions = ordered(r.peer.get("gtsam_version", "unknown") for r in ran if r.peer)
+    lines = markdown_table(columns, [peer_row(r, with_isam2) for r in ran])
+    lines += ["", f"GTSAM {', '.join(versions) or 'unknown'} from PyPI, in its own venv and process "
+              "(`scripts/gtsam_peer.py`), on the final graph of the agnc_pgo run beside it (its "
+              "`estimate.g2o`: every odometry edge and loop closure, injected outliers included; labels from "
+              "`loop_closures.csv`). GNC: `GncLMOptimizer`, TLS, default parameters, initialised by composing "
+              "the odometry, prior on pose 0, prior and odometry known inliers; a loop closure is kept when "
+              "its final weight is above 0.5. GNC CPU s: process CPU time of building and running the "
+              "optimiser; agnc_pgo runtime: its total update time (one thread). \"optimum\": the replay's "
+              "own outlier-free least-squares reference; \"peer's optimum\": GTSAM's Levenberg-Marquardt on "
+              "the outlier-free graph from the odometry, from LAGO / chordal initialisation and from the "
+              "ground truth, the lowest χ² (shown with its start, and the starts that ended higher: a local "
+              "minimum). ATE m: against the shipped ground truth."]
+    if with_isam2:
+        lines += ["", "iSAM2: `gtsam.ISAM2`, default parameters, fed the true loop closures only, pose by pose "
+                  "(its odometry, then the loop closures ending there), one update per pose; CPU time of the "
+                  "updates and of reading the newest pose: the speed floor of an exact incremental solver "
+                  "that is told which loop closures are true."]
+    return lines
+
+
 def geometric_mean(values):
     values = [v for v in values if np.isfinite(v) and v > 0]
     return float(np.exp(np.mean(np.log(values)))) if values else float("nan")
@@ -775,6 +925,8 @@ def write_report(results, graphs, args, started, load_before):
         accuracy = accuracy_section(main)
         if accuracy:
             lines += ["", "## g2o datasets by outlier rate (seeds pooled)", ""] + accuracy
+    if args.peers:
+        lines += ["", "## GTSAM peers on the same final graphs", ""] + peer_section(results, args.peers)
     if any(r.ok for r in main):
         plot_latency(main, os.path.join(args.out, "benchmark_latency.png"))
         plot_runtime(main, os.path.join(args.out, "benchmark_runtime.png"))
@@ -836,11 +988,18 @@ def parse_arguments(argv=None):
         help="where the synthetic graphs go (default build/scaling/)")
     add("--sphere", action="store_true", help="also run the Sphere2500 cells (SE(3); ~9 min each)")
     add("--list", action="store_true", help="list the selected cells and exit")
+    add("--peers", nargs="?", const=["gnc"], default=[], type=comma_list(str, PEERS),
+        help="also run GTSAM peers on the final graph of every input (one schedule's run): gnc = batch "
+             "GncLMOptimizer (TLS), isam2 = ISAM2 on the true loop closures (speed floor); comma-separated, "
+             "--peers alone = gnc. GTSAM comes from PyPI into --peer-venv, made on first use")
+    add("--peer-venv", default=DEFAULT_PEER_VENV,
+        help="the peers' virtual environment (default build/peer_venv/)")
     add("--no-instructions", dest="count_instructions", action="store_false",
         help="do not count instructions with perf stat (counted by default where perf can)")
     args = parser.parse_args(argv)
     args.schedules = ordered(args.schedules)
     args.seeds = ordered(args.seeds)
+    args.peers = ordered(args.peers)
     if not args.list and not os.access(args.tool, os.X_OK):
         parser.error(f"replay tool not found: {args.tool} (build it with scripts/setup.sh, or pass --tool)")
     return args
@@ -858,6 +1017,13 @@ def main(argv=None):
     if not cells:
         print("no cell selected", file=sys.stderr)
         return 1
+    args.peer_cells = peer_cells(cells, args.peers)
+    if args.peers:
+        try:
+            args.peer_python = peer_venv_python(args.peer_venv)
+        except RuntimeError as e:
+            print(f"--peers: {e}", file=sys.stderr)
+            return 1
     if args.count_instructions and not perf_available():
         print("perf stat cannot count instructions here: the instructions column stays empty", flush=True)
         args.count_instructions = False
