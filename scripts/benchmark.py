@@ -72,6 +72,9 @@ DEFAULT_TOOL = os.path.join(REPO, "build", "devel", "lib", "agnc_pgo", "agnc_pgo
 PEER_SCRIPT = os.path.join(SCRIPTS, "gtsam_peer.py")
 DEFAULT_PEER_VENV = os.path.join(REPO, "build", "peer_venv")
 PEERS = ("gnc", "isam2")
+# Pinned so that peer numbers of different runs compare (4.3.0: the newest on
+# PyPI when the peers were added, wheels for Debian 12's Python 3.11).
+PEER_REQUIREMENTS = ("gtsam==4.3.0", "numpy")
 
 SCHEDULES = ("agnc", "agnc-fixed", "risam", "none")
 OUTLIER_PERCENTS = (10, 30, 50)
@@ -390,25 +393,29 @@ def peer_cells(cells, peers):
 
 def peer_venv_python(venv):
     """The python of the peers' venv, made on first use (python3 -m venv, pip
-    install gtsam numpy from PyPI). GTSAM is a benchmark peer only: nothing
-    of agnc_pgo's build or tests needs it. Raises RuntimeError saying why."""
+    install PEER_REQUIREMENTS from PyPI). GTSAM is a benchmark peer only:
+    nothing of agnc_pgo's build or tests needs it. Raises RuntimeError saying
+    why not."""
     python = os.path.join(venv, "bin", "python")
+    pinned = PEER_REQUIREMENTS[0].split("==")[1]
+    check = f"import gtsam, numpy; from importlib import metadata; assert metadata.version('gtsam') == '{pinned}'"
 
     def has_gtsam():
         return os.access(python, os.X_OK) and subprocess.run(
-            [python, "-c", "import gtsam, numpy"], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode == 0
+            [python, "-c", check], stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL).returncode == 0
 
     if has_gtsam():
         return python
-    print(f"making the GTSAM peer venv {shown_path(venv)} (python3 -m venv; pip install gtsam numpy)", flush=True)
+    print(f"making the GTSAM peer venv {shown_path(venv)} (python3 -m venv; pip install "
+          f"{' '.join(PEER_REQUIREMENTS)})", flush=True)
     for command in ([sys.executable, "-m", "venv", venv],
-                    [python, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", "gtsam", "numpy"]):
+                    [python, "-m", "pip", "install", "--quiet", "--disable-pip-version-check", *PEER_REQUIREMENTS]):
         proc = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
         if proc.returncode != 0:
             last = (proc.stdout.strip().splitlines() or [f"exit code {proc.returncode}"])[-1]
             raise RuntimeError(f"{' '.join(command[:3])} ... failed: {last}")
     if not has_gtsam():
-        raise RuntimeError(f"{shown_path(venv)}: gtsam does not import after pip install")
+        raise RuntimeError(f"{shown_path(venv)}: gtsam {pinned} does not import after pip install")
     return python
 
 
