@@ -371,6 +371,8 @@ def measure(args):
     for who, trajectory in trajectories.items():
         for name, positions_of_reference in references.items():
             report[f"{who}_ate_vs_{name}_m"] = ate(trajectory, positions_of_reference)
+    if ground_truth is not None:  # plain least squares on the outlier-free graph
+        report["optimum_ate_vs_ground_truth_m"] = ate(references["optimum"], references["ground_truth"])
     return plain(report)
 
 
