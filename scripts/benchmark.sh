@@ -5,11 +5,13 @@
 # doc/benchmark.md and its plots. Run it on a quiet machine.
 #   scripts/benchmark.sh --quick            # CSAIL and Intel logs only
 #   scripts/benchmark.sh --seeds 1,2,3 --repeat 3
+#   scripts/benchmark.sh --peers gnc,isam2   # GTSAM beside agnc_pgo (its own venv)
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 
-# perf stat counts each run's instructions (the drift-free measure of work).
-AGNC_PACKAGES+=(linux-perf)
+# perf stat counts each run's instructions (the drift-free measure of work);
+# python3-venv makes the venv of the GTSAM peers (--peers).
+AGNC_PACKAGES+=(linux-perf python3-venv)
 agnc_install_dependencies
 agnc_build
 
