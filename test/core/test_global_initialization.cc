@@ -236,7 +236,8 @@ TEST(OptimizeBatchGlobal, OdometryStartIsOptimizeBatchAndTheGraphGetsTheWinner) 
   ASSERT_EQ(r.starts.size(), 2u);
   EXPECT_EQ(r.starts[0].start, BatchStart::kOdometry);
   EXPECT_EQ(r.starts[1].start, BatchStart::kGlobalInitialization);
-  EXPECT_DOUBLE_EQ(r.starts[0].chi2, 2.0 * alone.final_cost);
+  // The same Levenberg-Marquardt run (to round-off: Ceres sums in parallel).
+  EXPECT_NEAR(r.starts[0].chi2, 2.0 * alone.final_cost, 1e-12 * r.starts[0].chi2);
   double lowest = std::min(r.starts[0].chi2, r.starts[1].chi2);
   EXPECT_DOUBLE_EQ(r.chi2, lowest);
   EXPECT_DOUBLE_EQ(r.bestStart().chi2, r.chi2);
