@@ -252,20 +252,26 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
     LoopClosure& loop = loops_[index];
     loop.innovation = innovation[i];
     // A chi-square test on the squared innovation, whatever the distance
-    // convention of the kernel's schedule (the reference code's r-against-
-    // r^2-quantiles would let a 6-sigma innovation pass).
-    const bool plausible = innovation[i] * innovation[i] < schedule_.thresholds().q90;
-    const std::vector<int> partners = plausible ? std::vector<int>() : corroboratingLoops(index);
-    if (plausible || !partners.empty()) {
+    // convention of the kernel (the reference code's r-against-r^2-quantiles
+    // would let a 6-sigma innovation pass). Alone, it is landed only as a
+    // confident inlier (below q(0.25), the AGNC schedule's band): a merely
+    // plausible one could as well be an outlier that a weakly constrained
+    // map absorbs (the Vertigo ring at 30 % has one, innovation^2 5.3, that
+    // folds it). Otherwise it needs corroboration.
+    const double squared = innovation[i] * innovation[i];
+    const bool confident = squared < schedule_.thresholds().q25;
+    const std::vector<int> partners = confident ? std::vector<int>() : corroboratingLoops(index);
+    if (confident || !partners.empty()) {
       // Land it (with the rejected loop closures that agree with it): the
       // whole cycle it closes is freed and every GNC step iterates until the
       // correction has landed, so the less convex steps judge it there.
       land(index, plan);
       for (int partner : partners) land(partner, plan);
     } else {
-      // It would bend the map further than the map's own consistency
-      // allows, and nothing corroborates it: pulling the map towards it
-      // could only fold it. Rejected at mu = 1, without a solve.
+      // Nothing corroborates it, and it would bend the map more than a
+      // confident inlier does: pulling the map towards it could fold it.
+      // Rejected at mu = 1, without a solve; a corroborating loop closure
+      // arriving later lands it after all (corroboratingLoops).
       schedule_.startAtOne(&loop.graduation);
       finishAt(&loop, 1.0);
       plan->decided.push_back(index);
