@@ -238,40 +238,29 @@ IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals() {
 
 void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   // A confident outlier by its own covariance. After a long drift a true
-  // loop closure is one too, yet the poses between its endpoints may be
-  // uncertain enough to absorb it: its innovation says whether they are.
-  int first = numPoses();
-  std::vector<int> factors;
+  // loop closure is one too, so this alone cannot tell them apart; nor can
+  // its innovation, on a weakly constrained map: the Vertigo ring at 50 %
+  // has a random outlier that its drifted odometry absorbs better than a
+  // confident inlier would (innovation^2 0.33), and landing it folds the
+  // ring. What tells them apart is corroboration: a place seen again yields
+  // a run of loop closures that agree with each other, a random outlier
+  // rarely has a neighbour that agrees with it.
   for (int index : far) {
-    first = std::min(first, olderEnd(loops_[index].edge));
-    factors.push_back(loops_[index].factor);
-  }
-  const std::vector<double> innovation = solver_.innovationNorms(factors, first);
-  for (size_t i = 0; i < far.size(); ++i) {
-    const int index = far[i];
+    // Landed already as the partner of an earlier one of this update.
+    if (std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end()) continue;
     LoopClosure& loop = loops_[index];
-    loop.innovation = innovation[i];
-    // A chi-square test on the squared innovation, whatever the distance
-    // convention of the kernel (the reference code's r-against-r^2-quantiles
-    // would let a 6-sigma innovation pass). Alone, it is landed only as a
-    // confident inlier (below q(0.25), the AGNC schedule's band): a merely
-    // plausible one could as well be an outlier that a weakly constrained
-    // map absorbs (the Vertigo ring at 30 % has one, innovation^2 5.3, that
-    // folds it). Otherwise it needs corroboration.
-    const double squared = innovation[i] * innovation[i];
-    const bool confident = squared < schedule_.thresholds().q25;
-    const std::vector<int> partners = confident ? std::vector<int>() : corroboratingLoops(index);
-    if (confident || !partners.empty()) {
-      // Land it (with the rejected loop closures that agree with it): the
-      // whole cycle it closes is freed and every GNC step iterates until the
-      // correction has landed, so the less convex steps judge it there.
+    const std::vector<int> partners = corroboratingLoops(index, far);
+    loop.uncorroborated = partners.empty();
+    if (!partners.empty()) {
+      // Land it with the rejected loop closures that agree with it: the
+      // whole cycle they close is freed and every GNC step iterates until
+      // the correction has landed, so the less convex steps judge them there.
       land(index, plan);
       for (int partner : partners) land(partner, plan);
     } else {
-      // Nothing corroborates it, and it would bend the map more than a
-      // confident inlier does: pulling the map towards it could fold it.
-      // Rejected at mu = 1, without a solve; a corroborating loop closure
-      // arriving later lands it after all (corroboratingLoops).
+      // Pulling the map towards it could only fold it. Rejected at mu = 1,
+      // without a solve; a corroborating loop closure arriving later lands
+      // it after all (corroboratingLoops).
       schedule_.startAtOne(&loop.graduation);
       finishAt(&loop, 1.0);
       plan->decided.push_back(index);
@@ -281,6 +270,7 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
 
 void IncrementalGnc::land(int index, UpdatePlan* plan) {
   LoopClosure& loop = loops_[index];
+  loop.uncorroborated = false;
   loop.graduation.init_step = 0;
   loop.graduation.mu_init = 0.0;
   setDormant(&loop, false);
@@ -288,11 +278,12 @@ void IncrementalGnc::land(int index, UpdatePlan* plan) {
   plan->cycles.push_back(index);
 }
 
-std::vector<int> IncrementalGnc::corroboratingLoops(int index) const {
-  // Rejected loop closures whose endpoints both lie within support_radius
-  // poses of this one's and that pass PCM's pairwise consistency test with
-  // it: a place seen again produces a run of such loop closures, an outlier
-  // rarely has a consistent neighbour.
+std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector<int>& far) const {
+  // Rejected loop closures, or far ones arriving in the same update, whose
+  // endpoints both lie within support_radius poses of this one's and that
+  // pass PCM's pairwise consistency test with it: a place seen again
+  // produces a run of such loop closures, an outlier rarely has a
+  // consistent neighbour.
   std::vector<int> partners;
   const int radius = options_.support_radius;
   if (radius == 0) return partners;
@@ -302,8 +293,10 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index) const {
   for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p) {
     for (int other : loops_by_newer_pose_[p]) {
       const LoopClosure& candidate = loops_[other];
-      if (other == index || candidate.inlier || candidate.override_mode != LoopOverride::kAuto ||
-          candidate.graduation.graduating || !areNeighbours(e, candidate.edge, radius))
+      const bool rejected = !candidate.inlier && !candidate.graduation.graduating;
+      const bool arriving = std::find(far.begin(), far.end(), other) != far.end();
+      if (other == index || candidate.override_mode != LoopOverride::kAuto || !(rejected || arriving) ||
+          !areNeighbours(e, candidate.edge, radius))
         continue;
       const double d = cycleDistance(dimension_, e, candidate.edge, pose);
       if (d * d < schedule_.thresholds().q95) partners.push_back(other);

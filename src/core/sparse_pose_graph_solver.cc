@@ -138,13 +138,6 @@ double SparsePoseGraphSolver::totalCost() const {
   return cost;
 }
 
-double SparsePoseGraphSolver::windowCost(int first) {
-  first = std::max(0, std::min(first, numPoses()));
-  if (numPoses() == first) return 0.0;
-  prepare(first);
-  return windowCost();
-}
-
 double SparsePoseGraphSolver::windowCost() const {
   double cost = 0.0, residual[6];
   for (const FactorSlot& slot : slots_) {
@@ -272,7 +265,7 @@ double SparsePoseGraphSolver::linearize() {
   Jacobian ja, jb;
   for (const FactorSlot& s : slots_) {
     const Factor& f = factors_[s.factor];
-    if (f.mode == FactorMode::kDisabled || f.excluded) continue;
+    if (f.mode == FactorMode::kDisabled) continue;
     evaluate(f, r.data(), s.ia >= 0 ? ja.data() : nullptr, s.ib >= 0 ? jb.data() : nullptr);
     double w = 1.0;
     if (f.mode == FactorMode::kRobust) {
@@ -318,73 +311,12 @@ bool SparsePoseGraphSolver::factorize() {
   return decompositions_->simplicial.info() == Eigen::Success;
 }
 
-Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
+Eigen::VectorXd SparsePoseGraphSolver::solve(const Eigen::VectorXd& rhs) {
   if (supernodal_) {
     keepCholmodSerial();
     return decompositions_->supernodal.solve(rhs);
   }
   return decompositions_->simplicial.solve(rhs);
-}
-
-std::vector<double> SparsePoseGraphSolver::innovationNorms(const std::vector<int>& factors, int first) {
-  std::vector<double> norms;
-  norms.reserve(factors.size());
-  for (int k : factors) norms.push_back(whitenedNorm(k));
-  first = std::max(0, std::min(first, numPoses()));
-  if (numPoses() - first == 0 || factors.empty()) return norms;
-  prepare(first);
-  for (int k : factors) factors_[k].excluded = true;
-  if (tangent_ == 3) linearize<3>();
-  else linearize<6>();
-  // The window's own consistency calibrates the stated covariances (the
-  // benchmark graphs state noise up to 40 times the real variance, which
-  // would make every pair of poses look uncertain enough to absorb anything).
-  const double scale = std::sqrt(windowVarianceFactor());
-  for (int k : factors) factors_[k].excluded = false;
-  if (!factorize()) return norms;
-
-  const int d = tangent_;
-  const long n = static_cast<long>(numPoses() - first) * d;
-  double residual[6], jac_a[36], jac_b[36];
-  for (size_t i = 0; i < factors.size(); ++i) {
-    const Factor& f = factors_[factors[i]];
-    const int va = f.a == kAnchor || f.a < first ? -1 : position_[f.a - first];
-    const int vb = f.b < first ? -1 : position_[f.b - first];
-    if (va < 0 && vb < 0) continue;
-    evaluate(f, residual, jac_a, jac_b);
-    // J^T as n x d (whitened Jacobian rows of the factor, tangent columns of the window).
-    Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n, d);
-    using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-    if (va >= 0) jt.block(static_cast<long>(va) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_a, d, d).transpose();
-    if (vb >= 0) jt.block(static_cast<long>(vb) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_b, d, d).transpose();
-    const Eigen::MatrixXd x = solve(jt);
-    if (!x.allFinite()) continue;
-    const Eigen::MatrixXd innovation = Eigen::MatrixXd::Identity(d, d) + jt.transpose() * x;
-    const Eigen::Map<const Eigen::VectorXd> r(residual, d);
-    const double squared = r.dot(innovation.ldlt().solve(r));
-    if (std::isfinite(squared) && squared >= 0.0) norms[i] = std::sqrt(squared) / scale;
-  }
-  return norms;
-}
-
-double SparsePoseGraphSolver::windowVarianceFactor() const {
-  const double dof = tangent_;
-  double chi2 = dof, redundancy = dof, residual[6];
-  for (const FactorSlot& slot : slots_) {
-    const Factor& f = factors_[slot.factor];
-    if (f.mode == FactorMode::kDisabled || f.excluded) continue;
-    evaluate(f, residual, nullptr, nullptr);
-    const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
-    double w = 1.0;
-    if (f.mode == FactorMode::kRobust) {
-      double rho[3];
-      f.loss.Evaluate(s, rho);
-      w = rho[1];
-      redundancy += w * dof;
-    }
-    chi2 += w * s;
-  }
-  return chi2 / redundancy;
 }
 
 IterationResult SparsePoseGraphSolver::iterate(int first) {

@@ -63,7 +63,7 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
     r.weight = loop.weight;
     r.distance = loop.distance;
     r.inlier = loop.inlier;
-    r.innovation = loop.innovation;
+    r.uncorroborated = loop.uncorroborated;
     result.loop_closures.push_back(r);
     labels.push_back(loop.edge.is_outlier);
     kept.push_back(loop.inlier);

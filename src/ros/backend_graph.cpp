@@ -405,7 +405,7 @@ GraphSnapshotPtr BackendGraph::snapshot(bool with_edges) const {
     edge.score = loop_meta_[k].score;
     edge.test_distance = engine_->schedule().distanceOf(l.distance);
     edge.threshold = engine_->schedule().thresholds().q95;
-    edge.innovation = l.innovation;
+    edge.uncorroborated = l.uncorroborated;
     edge.dormant = l.dormant;
     edge.decided_in_update = k < decisions_.size() ? decisions_[k].update : updates_;
     s->edges.push_back(edge);

@@ -168,7 +168,7 @@ agnc_pgo::PoseGraph makePoseGraph(const GraphSnapshot& snapshot, const std::stri
     out.score = e.score;
     out.test_distance = e.test_distance;
     out.threshold = e.threshold;
-    out.innovation = e.innovation;
+    out.uncorroborated = e.uncorroborated;
     out.dormant = e.dormant;
     out.decided_in_update = static_cast<uint32_t>(e.decided_in_update);
   }

@@ -259,11 +259,11 @@ int main(int argc, char** argv) {
       writeG2o(resultGraph(log, result), (dir / "estimate.g2o").string());
       writeTumTrajectory(result.estimate, (dir / "trajectory.tum").string());
       std::ofstream csv(dir / "loop_closures.csv");
-      csv << "from,to,outlier,mu,weight,distance,inlier,innovation\n" << std::setprecision(10);
+      csv << "from,to,outlier,mu,weight,distance,inlier,uncorroborated\n" << std::setprecision(10);
       for (const LoopClosureResult& l : result.loop_closures)
         csv << l.edge.from << ',' << l.edge.to << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << l.mu << ','
             << l.weight << ',' << l.distance << ',' << (l.inlier ? 1 : 0) << ','
-            << l.innovation << '\n';
+            << (l.uncorroborated ? 1 : 0) << '\n';
       std::ofstream latency(dir / "latency.csv");
       latency << "poses,update_ms,free_poses,iterations,refinement_iterations,gnc_steps,graduated\n";
       for (size_t i = 0; i < result.loop_update_ms.size(); ++i) {

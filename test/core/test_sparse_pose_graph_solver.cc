@@ -133,30 +133,3 @@ TEST(SparsePoseGraphSolver, RejectsUnknownPosesAndBadInformation) {
                std::invalid_argument);
   EXPECT_EQ(solver.numFactors(), 0);
 }
-
-// The innovation of a loop closure along a straight chain, where the
-// problem is linear in x: five poses 1 m apart, odometry sigma 0.1 m, and a
-// loop closure 0 -> 4 measuring 4.3 m (sigma 0.1 m, r = 3). The relative
-// position of its endpoints has variance 4 * 0.01, so its innovation is
-// d^2 = 3^2 / (1 + 0.04 / 0.01) = 1.8 -- and twice the optimal cost once it
-// is added, which the solver then reaches.
-TEST(SparsePoseGraphSolver, InnovationIsTheCostOfLandingTheFactor) {
-  SparsePoseGraphSolver solver(2);
-  for (int i = 0; i < 5; ++i) solver.addPose(Pose::fromSE2(i, 0, 0));
-  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
-                   FactorMode::kPlain);
-  for (int i = 0; i < 4; ++i)
-    solver.addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kPlain);
-  const int loop = solver.addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
-                                    FactorMode::kPlain);
-  EXPECT_NEAR(solver.whitenedNorm(loop), 3.0, 1e-9);
-  // No loop closure in the window: the variance factor is the prior's, 1.
-  const std::vector<double> d = solver.innovationNorms({loop}, 0);
-  ASSERT_EQ(d.size(), 1u);
-  EXPECT_NEAR(d[0] * d[0], 1.8, 1e-4);
-  for (int k = 0; k < 20; ++k) solver.iterate(0);
-  EXPECT_NEAR(2.0 * solver.totalCost(), 1.8, 1e-4);
-  // With no free endpoint nothing can absorb it: the innovation is its
-  // whitened norm.
-  EXPECT_DOUBLE_EQ(solver.innovationNorms({loop}, 5)[0], solver.whitenedNorm(loop));
-}

@@ -3,7 +3,7 @@
 outliers to be inliers bends the map and knocks true loop closures out;
 putting them back to AUTO (again by stamps) makes those graduate again, so
 every loop closure ends with the decision it had before the overrides.
-~pose_graph edges say why: test distance against the threshold, innovation,
+~pose_graph edges say why: test distance against the threshold, uncorroborated,
 dormant, the update that last decided them."""
 import sys
 import time
@@ -50,7 +50,7 @@ class Overrides(unittest.TestCase):
             if e.dormant:
                 self.assertFalse(e.inlier, e)
         self.assertTrue(any(e.dormant for e in loops if e.source == "outlier"))
-        self.assertTrue(any(e.innovation > 0 for e in loops if e.source == "outlier"))
+        self.assertTrue(any(e.uncorroborated for e in loops if e.source == "outlier"))
         odometry = [e for e in g.edges if e.type == e.ODOMETRY]
         self.assertTrue(all(e.threshold == 0 and e.decided_in_update == 0 for e in odometry))
 

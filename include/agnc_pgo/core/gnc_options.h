@@ -76,11 +76,12 @@ struct GncOptions {
   // tails pull the map (M3500 at 50 %: ATE 0.934 m kept down to 1e-8, 0.810 m
   // from 1e-6, against 0.795 m without outliers).
   double dormant_weight = 1e-6;
-  // A new loop closure that is a confident outlier by its own covariance and
-  // by its innovation is still landed when a rejected loop closure whose
-  // endpoints both lie within this many poses of its own passes the pairwise
-  // consistency test with it (loop_consistency.h, at q(0.95)): a place seen
-  // again after a long drift yields a run of such loop closures. 0: never.
+  // A new loop closure that is a confident outlier by its own covariance
+  // (beyond q(0.9)) is landed -- its whole cycle freed -- when a rejected
+  // loop closure whose endpoints both lie within this many poses of its own
+  // passes the pairwise consistency test with it (loop_consistency.h, at
+  // q(0.95)): a place seen again after a long drift yields a run of such
+  // loop closures. Otherwise it is rejected without a solve. 0: never.
   int support_radius = 5;
   // Safety bound on GNC steps per update (a loop closure needs at most 6).
   int max_gnc_steps = 30;

@@ -30,9 +30,9 @@ struct LoopClosure {
   int factor = -1;            // the solver's factor id
   GraduationState graduation;
   double distance = 0.0;      // last whitened residual norm r
-  // Its innovation on arrival (SparsePoseGraphSolver::innovationNorms),
-  // computed for a loop closure beyond q(0.9) by its own covariance; 0 otherwise.
-  double innovation = 0.0;
+  // Rejected on arrival as a confident outlier by its own covariance (beyond
+  // q(0.9)) that no neighbouring loop closure corroborated (yet).
+  bool uncorroborated = false;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (distance < q(0.95) under the convention)
   bool dormant = false;       // out of the linear system (see GncOptions::dormant_weight)
@@ -121,7 +121,7 @@ class IncrementalGnc {
   UpdatePlan judgeArrivals();
   void judgeFar(const std::vector<int>& far, UpdatePlan* plan);
   void land(int index, UpdatePlan* plan);
-  std::vector<int> corroboratingLoops(int index) const;
+  std::vector<int> corroboratingLoops(int index, const std::vector<int>& far) const;
   void planWindow(UpdatePlan* plan) const;
   void selectGraduating(UpdatePlan* plan);
   void runGncSteps(UpdatePlan* plan, UpdateStats* stats);

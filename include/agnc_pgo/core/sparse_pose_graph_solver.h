@@ -111,22 +111,7 @@ class SparsePoseGraphSolver {
 
   // Robust cost over all factors (0.5 * sum rho).
   double totalCost() const;
-  // Robust cost of the factors that touch a pose >= first_variable.
-  double windowCost(int first_variable);
 
-  // The innovation of each given factor against the window (poses >=
-  // first_variable free, older ones fixed) without the given factors: the
-  // Mahalanobis distance sqrt(r^T (I + J H^-1 J^T)^-1 r) of its whitened
-  // residual r, where J is its whitened Jacobian and H the Gauss-Newton
-  // Hessian of the window (J H^-1 J^T: the relative covariance of its
-  // endpoints, whitened by its information). Its square is, to first order,
-  // how much the window's optimal cost rises when the factor is added: the
-  // data-association test of iSAM (Kaess & Dellaert) and PCM. It is divided
-  // by the square root of the window's variance factor
-  // (windowVarianceFactor()), so it does not depend on how well the stated
-  // covariances are scaled. A factor with no free endpoint keeps its
-  // whitened norm; so does every factor when H is singular.
-  std::vector<double> innovationNorms(const std::vector<int>& factors, int first_variable);
 
  private:
   struct Factor {
@@ -135,7 +120,6 @@ class SparsePoseGraphSolver {
     SigLoss loss;
     FactorMode mode;
     bool dormant = false;
-    bool excluded = false;  // left out of linearize() (innovationNorms), structure unchanged
   };
   // Where a window factor's blocks live in the sparse matrix.
   struct FactorSlot {
@@ -157,14 +141,9 @@ class SparsePoseGraphSolver {
   void prepare(int first);
   // Factorises hessian_; false if it is not positive definite.
   bool factorize();
-  Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs);
+  Eigen::VectorXd solve(const Eigen::VectorXd& rhs);
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
-  // A posteriori variance of unit weight of the window: its IRLS-weighted
-  // chi2 over its redundancy (the kernel weights of its robust factors, one
-  // factor dimension each), with the stated covariances as a prior worth one
-  // factor, so a window without loop closures keeps a factor of 1.
-  double windowVarianceFactor() const;
   void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;
   const double* blockOf(int id) const { return id == kAnchor ? anchor_.data() : blocks_[id].data(); }
 

@@ -27,7 +27,7 @@ struct LoopClosureResult {
   double weight = 0;     // final kernel weight
   double distance = 0;   // final whitened residual norm r
   bool inlier = false;   // final classification
-  double innovation = 0;  // LoopClosure::innovation
+  bool uncorroborated = false;  // LoopClosure::uncorroborated
 };
 
 struct ReplayResult {

@@ -37,8 +37,7 @@ struct SnapshotEdge {
   std::string source;
   double score = 0.0;
   double test_distance = 0.0, threshold = 0.0;  // loop closures: what GNC compared
-  double innovation = 0.0;  // core::LoopClosure::innovation
-  bool dormant = false;
+  bool uncorroborated = false, dormant = false;  // core::LoopClosure
   long decided_in_update = 0;
   EIGEN_MAKE_ALIGNED_OPERATOR_NEW
 };
