@@ -77,12 +77,15 @@ if [ "$WHICH" = all ] || [ "$WHICH" = asan ]; then
 fi
 if [ "$WHICH" = all ] || [ "$WHICH" = tsan ]; then
   dir="$AGNC_ROOT/build/tsan"
+  # gcc's TSan runtime symbolizes only with an external symbolizer (clang-14 has one).
+  symbolizer=""
+  [ -x /usr/lib/llvm-14/bin/llvm-symbolizer ] && symbolizer=":external_symbolizer_path=/usr/lib/llvm-14/bin/llvm-symbolizer"
   configure_and_build "$dir" "-fsanitize=thread" agnc_pgo_ros dataset_player backend_node agnc_pgo_generate_messages
   rm -rf "$dir/reports" && mkdir -p "$dir/reports"
   (
     export ROS_HOME="$dir/ros_home"
     source "$dir/devel/setup.bash"
-    export TSAN_OPTIONS="halt_on_error=0:second_deadlock_stack=1:log_path=$dir/reports/tsan"
+    export TSAN_OPTIONS="halt_on_error=0:second_deadlock_stack=1:log_path=$dir/reports/tsan:suppressions=$AGNC_ROOT/scripts/tsan_suppressions.txt:print_suppressions=0$symbolizer"
     export AGNC_PGO_MANAGER_PREFIX="env LD_PRELOAD=$(gcc -print-file-name=libtsan.so) TSAN_OPTIONS=$TSAN_OPTIONS"
     run_rostests "$dir" end_to_end.test
   ) || status=1
