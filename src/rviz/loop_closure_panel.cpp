@@ -44,6 +44,8 @@ LoopClosurePanel::LoopClosurePanel(QWidget* parent) : rviz::Panel(parent) {
   table_widget_->setSelectionMode(QAbstractItemView::SingleSelection);
   table_widget_->setEditTriggers(QAbstractItemView::NoEditTriggers);
   table_widget_->verticalHeader()->setVisible(false);
+  table_widget_->verticalHeader()->setDefaultSectionSize(table_widget_->fontMetrics().height() + 4);
+  table_widget_->setWordWrap(false);
   table_widget_->horizontalHeader()->setSectionsClickable(true);
   layout->addWidget(table_widget_, 1);
 
@@ -118,6 +120,10 @@ void LoopClosurePanel::fillTable() {
       if (!item) table_widget_->setItem(r, c, item = new QTableWidgetItem());
       item->setText(QString::fromStdString(cellText(table_.row(r), static_cast<Column>(c))));
     }
+  }
+  if (!columns_sized_ && table_.size() > 0) {  // once: later rows keep the user's widths
+    table_widget_->resizeColumnsToContents();
+    columns_sized_ = true;
   }
   const int row = selected < 0 ? -1 : table_.findLoopIndex(selected);
   if (row >= 0) table_widget_->selectRow(row);
