@@ -121,9 +121,11 @@ void LoopClosurePanel::fillTable() {
       item->setText(QString::fromStdString(cellText(table_.row(r), static_cast<Column>(c))));
     }
   }
-  if (!columns_sized_ && table_.size() > 0) {  // once: later rows keep the user's widths
+  // Sized to the contents whenever the table has grown tenfold (wider
+  // numbers), not on every graph: that would undo the user's widths.
+  if (table_.size() > 0 && table_.size() >= 10 * sized_at_rows_) {
     table_widget_->resizeColumnsToContents();
-    columns_sized_ = true;
+    sized_at_rows_ = table_.size();
   }
   const int row = selected < 0 ? -1 : table_.findLoopIndex(selected);
   if (row >= 0) table_widget_->selectRow(row);

@@ -59,7 +59,7 @@ class LoopClosurePanel : public rviz::Panel {
   bool paused_ = false;
   Column sort_column_ = Column::kIndex;
   bool ascending_ = true;
-  bool columns_sized_ = false;
+  int sized_at_rows_ = 0;
 
   ros::NodeHandle nh_;
   ros::Subscriber graph_subscriber_, status_subscriber_;
