@@ -18,7 +18,7 @@ AGNC_PACKAGES=(
   python3-rostopic python3-rosnode python3-rosservice
   python3-geometry-msgs python3-nav-msgs python3-std-srvs python3-visualization-msgs python3-tf2-ros
   libceres-dev libsuitesparse-dev libeigen3-dev libboost-dev
-  librviz-dev rviz xvfb xauth imagemagick libgl1-mesa-dri
+  librviz-dev rviz libinteractive-markers-dev xvfb xauth imagemagick libgl1-mesa-dri
   python3-matplotlib python3-numpy python3-pytest
   clang-14 libclang-rt-14-dev
 )
@@ -37,10 +37,13 @@ agnc_install_dependencies() {
     -o Dpkg::Options::=--force-unsafe-io "${missing[@]}" >/dev/null
 }
 
+# The install prefix is build/.install: roslaunch finds `agnc_pgo demo.launch`
+# by walking the package directory (skipping only hidden directories), so
+# an install space under build/install would be a second demo.launch.
 agnc_build() {
   export ROS_HOME="$AGNC_BUILD/ros_home"
   mkdir -p "$ROS_HOME"
-  cmake -S "$AGNC_ROOT" -B "$AGNC_BUILD" -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX="$AGNC_BUILD/install" \
+  cmake -S "$AGNC_ROOT" -B "$AGNC_BUILD" -DCMAKE_BUILD_TYPE=Release -DCMAKE_INSTALL_PREFIX="$AGNC_BUILD/.install" \
     -DPYTHON_EXECUTABLE=/usr/bin/python3 -DPython3_EXECUTABLE=/usr/bin/python3 >/dev/null
   local log="$AGNC_BUILD/build.log"
   if ! cmake --build "$AGNC_BUILD" -j"$(nproc)" "$@" >"$log" 2>&1; then

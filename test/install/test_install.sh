@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # The install space as a user gets it: installs the built package into
-# BUILD/install (the prefix scripts/setup.sh configures), then, in a clean
-# environment with only BUILD/install/setup.bash sourced,
+# BUILD/.install (the prefix scripts/setup.sh configures), then, in a clean
+# environment with only BUILD/.install/setup.bash sourced,
 #  - the installed headers do not pull in CHOLMOD;
 #  - the downstream package test/install/agnc_pgo_consumer
 #    (find_package(catkin REQUIRED COMPONENTS agnc_pgo)) compiles, links and
@@ -16,7 +16,7 @@ build="$(cd "${1:?usage: test_install.sh BUILD_DIR WORLD.g2o RESULT.xml}" && pwd
 world="${2:?world}"
 xml="${3:?result xml}"
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-prefix="$build/install"
+prefix="$build/.install"
 work="$build/install_test"
 rm -rf "$work" && mkdir -p "$work" "$(dirname "$xml")"
 cases=()
