@@ -106,6 +106,22 @@ def classify(path, old, new):
     return None
 
 
+def graphs(work):
+    """The two graphs saved over each other: Intel and M3500 from ../shared when it is there,
+    otherwise two worlds of the repository's own generator (1000 and 3500 poses)."""
+    datasets = os.path.join(ROOT, "..", "shared", "datasets")
+    if os.path.isdir(datasets):
+        return os.path.join(datasets, "intel.g2o"), os.path.join(datasets, "manhattanOlson3500.g2o")
+    paths = []
+    for poses in (1000, 3500):
+        name = "grid2d_%d_seed1" % poses
+        subprocess.check_call([sys.executable, os.path.join(ROOT, "scripts", "make_scaling_graph.py"),
+                               "--poses", str(poses), "--seed", "1", "--out", work, "--name", name],
+                              stdout=subprocess.DEVNULL)
+        paths.append(os.path.join(work, name + ".g2o"))
+    return paths[0], paths[1]
+
+
 def wait_for_master(timeout):
     """roscore takes seconds to come up on a loaded machine."""
     import rosgraph
@@ -129,12 +145,11 @@ def main():
         wait_for_master(60.0)
         subprocess.check_call(["rosparam", "load", os.path.join(ROOT, "config", "default.yaml"), BACKEND])
         rospy.init_node("agnc_pgo_durability_test", anonymous=True, disable_signals=True)
-        datasets = os.path.join(ROOT, "..", "shared", "datasets")
+        old_graph, new_graph = graphs(work)
         backend = Backend(executable, log)
         backend.pause(data=True)
-        old, old_nodes = make_pair(backend, os.path.join(datasets, "intel.g2o"), os.path.join(work, "old.g2o"))
-        new, new_nodes = make_pair(backend, os.path.join(datasets, "manhattanOlson3500.g2o"),
-                                   os.path.join(work, "new.g2o"))
+        old, old_nodes = make_pair(backend, old_graph, os.path.join(work, "old.g2o"))
+        new, new_nodes = make_pair(backend, new_graph, os.path.join(work, "new.g2o"))
         start = time.time()
         backend.save(filename=os.path.join(work, "timing.g2o"))
         save_seconds = time.time() - start
