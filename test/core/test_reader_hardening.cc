@@ -18,6 +18,7 @@
 #include "agnc_pgo/core/g2o_io.h"
 #include "agnc_pgo/eval/irl_io.h"
 #include "agnc_pgo/eval/metrics.h"
+#include "shared_datasets.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -147,6 +148,7 @@ TEST(ReaderHardening, SaveLoadSaveIsByteIdentical2D) {
 }
 
 TEST(ReaderHardening, SaveLoadSaveIsByteIdentical3D) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   PoseGraph g = readG2o(dataset("sphere2500.g2o"));
   // Products of quaternions, as an optimiser's estimate would hold.
   for (size_t i = 1; i < g.poses.size(); ++i) g.poses[i] = g.poses[i - 1] * (g.poses[i - 1].inverse() * g.poses[i]);
@@ -156,6 +158,7 @@ TEST(ReaderHardening, SaveLoadSaveIsByteIdentical3D) {
 }
 
 TEST(ReaderHardening, SavedG2oAnnouncesItsCountsAndTruncationIsRefused) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const std::string text = toText(readG2o(dataset("csail.g2o")));
   EXPECT_EQ(text.substr(0, 50), "# agnc_pgo_g2o vertices 1045 edges 1172 fix 0\nVERT");
   // Cut at a line end in the edge section, and inside the last number.
