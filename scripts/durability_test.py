@@ -31,13 +31,23 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BACKEND = "/agnc_pgo_backend"
 
 
+def free_port():
+    """A port nothing listens on now, so that two probes (two clones) never share a master."""
+    import socket
+    with socket.socket() as probe:
+        probe.bind(("localhost", 0))
+        return probe.getsockname()[1]
+
+
 def parse_arguments():
     p = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     p.add_argument("--trials", type=int, default=24)
-    p.add_argument("--port", type=int, default=11463)
+    p.add_argument("--port", type=int, default=0, help="roscore port (default: a free one)")
     p.add_argument("--seed", type=int, default=1)
     p.add_argument("--build", default=os.path.join(ROOT, "build"))
     a = p.parse_args()
+    if a.port == 0:
+        a.port = free_port()
     if a.trials < 1:
         p.error("--trials must be >= 1")
     return a
