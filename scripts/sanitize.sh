@@ -65,7 +65,7 @@ if [ "$WHICH" = all ] || [ "$WHICH" = asan ]; then
     source "$dir/devel/setup.bash"
     export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1:log_path=$dir/reports/ubsan"
     export ASAN_OPTIONS="detect_leaks=1:halt_on_error=1:log_path=$dir/reports/asan"
-    ctest --test-dir "$dir" -E rostest --output-on-failure --timeout 600 >"$dir/ctest.log" 2>&1 \
+    ctest --test-dir "$dir" -E "rostest|install_test" --output-on-failure --timeout 600 >"$dir/ctest.log" 2>&1 \
       && echo "[sanitize] asan: $(grep -E 'tests passed' "$dir/ctest.log")" \
       || { echo "[sanitize] asan gtests FAILED (log $dir/ctest.log)" >&2; exit 1; }
     # ROS keeps process-lifetime allocations (singletons) until exit: no leak check in the rostests.
