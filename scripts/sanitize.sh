@@ -44,6 +44,8 @@ run_rostests() {  # dir tests...
   local dir="$1"
   shift
   local status=0
+  # The rostests' generated world (CMake passes it to ctest's rostests the same way).
+  export AGNC_PGO_TEST_WORLD_DIR="$dir/test_worlds"
   for t in "$@"; do
     if timeout 600 rostest agnc_pgo "$t" >"$dir/reports_log_$t.log" 2>&1; then
       echo "[sanitize] rostest $t: passed"
