@@ -84,8 +84,6 @@ class SparsePoseGraphSolver {
     if (factors_[factor].dormant != dormant) ++structure_version_;
     factors_[factor].dormant = dormant;
   }
-  bool dormant(int factor) const { return factors_[factor].dormant; }
-  FactorMode mode(int factor) const { return factors_[factor].mode; }
   // The whitened residual norm r = |S e| at the current estimate.
   double whitenedNorm(int factor) const;
   // The kernel weight at the factor's current mu (1 for plain, 0 disabled).
@@ -107,7 +105,6 @@ class SparsePoseGraphSolver {
   }
   // The next iteration starts again from the initial radius.
   void resetTrustRegion() { radius_ = initial_radius_; }
-  double trustRegionRadius() const { return radius_; }
 
   // Robust cost over all factors (0.5 * sum rho).
   double totalCost() const;
