@@ -7,6 +7,7 @@
 #include <string>
 
 #include "agnc_pgo/core/loop_consistency.h"
+#include "agnc_pgo/core/loop_prediction.h"
 #include "agnc_pgo/core/shape_function.h"
 
 namespace agnc_pgo {
@@ -238,34 +239,65 @@ IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals() {
 
 void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   // A confident outlier by its own covariance. After a long drift a true
-  // loop closure is one too, so this alone cannot tell them apart; nor can
-  // its innovation, on a weakly constrained map: the Vertigo ring at 50 %
-  // has a random outlier that its drifted odometry absorbs better than a
-  // confident inlier would (innovation^2 0.33), and landing it folds the
-  // ring. What tells them apart is corroboration: a place seen again yields
-  // a run of loop closures that agree with each other, a random outlier
-  // rarely has a neighbour that agrees with it.
+  // loop closure is one too, so this alone cannot tell them apart. Two
+  // things can: a neighbour that agrees with it (a place seen again yields a
+  // run of loop closures that agree with each other; a random outlier
+  // rarely has one), or, for a loop closure that comes alone, the map --
+  // whether its uncertainty between the endpoints explains the residual
+  // better than chance does (loop_prediction.h).
+  std::vector<int> alone;
   for (int index : far) {
     // Landed already as the partner of an earlier one of this update.
     if (std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end()) continue;
-    LoopClosure& loop = loops_[index];
     const std::vector<int> partners = corroboratingLoops(index, far);
-    loop.uncorroborated = partners.empty();
-    if (!partners.empty()) {
-      // Land it with the rejected loop closures that agree with it: the
-      // whole cycle they close is freed and every GNC step iterates until
-      // the correction has landed, so the less convex steps judge them there.
-      land(index, plan);
-      for (int partner : partners) land(partner, plan);
-    } else {
-      // Pulling the map towards it could only fold it. Rejected at mu = 1,
-      // without a solve; a corroborating loop closure arriving later lands
-      // it after all (corroboratingLoops).
-      schedule_.startAtOne(&loop.graduation);
-      finishAt(&loop, 1.0);
-      plan->decided.push_back(index);
+    if (partners.empty()) {
+      alone.push_back(index);
+      continue;
     }
+    // Land it with the rejected loop closures that agree with it: the
+    // whole cycle they close is freed and every GNC step iterates until
+    // the correction has landed, so the less convex steps judge them there.
+    land(index, plan);
+    for (int partner : partners) land(partner, plan);
   }
+  const std::vector<bool> explained = explainedByTheMap(alone);
+  for (size_t i = 0; i < alone.size(); ++i) {
+    LoopClosure& loop = loops_[alone[i]];
+    if (explained[i]) {
+      land(alone[i], plan);
+      continue;
+    }
+    // Pulling the map towards it could only fold it. Rejected at mu = 1,
+    // without a solve; a corroborating loop closure arriving later lands
+    // it after all (corroboratingLoops).
+    loop.uncorroborated = true;
+    schedule_.startAtOne(&loop.graduation);
+    finishAt(&loop, 1.0);
+    plan->decided.push_back(alone[i]);
+  }
+}
+
+std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loops) {
+  std::vector<bool> explained(loops.size(), false);
+  if (loops.empty()) return explained;
+  int first = numPoses();
+  std::vector<int> factors;
+  for (int index : loops) {
+    first = std::min(first, olderEnd(loops_[index].edge));
+    factors.push_back(loops_[index].factor);
+  }
+  // The whole cycle each closes is free; the prediction of the map holds
+  // the older poses fixed, which is what landing it would do.
+  const std::vector<SparsePoseGraphSolver::Prediction> predictions = solver_.predict(factors, first);
+  const Eigen::VectorXd extent = mapExtent(dimension_, poses());
+  for (size_t i = 0; i < loops.size(); ++i) {
+    // Even prior odds: a far loop closure is as likely false as true until
+    // the map says otherwise.
+    const double log_odds = logPredictionOdds(predictions[i].residual, predictions[i].covariance,
+                                              logChanceVolume(extent, loops_[loops[i]].edge.information));
+    explained[i] = log_odds > 0.0;
+  }
+  return explained;
 }
 
 void IncrementalGnc::land(int index, UpdatePlan* plan) {

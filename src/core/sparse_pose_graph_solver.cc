@@ -265,7 +265,7 @@ double SparsePoseGraphSolver::linearize() {
   Jacobian ja, jb;
   for (const FactorSlot& s : slots_) {
     const Factor& f = factors_[s.factor];
-    if (f.mode == FactorMode::kDisabled) continue;
+    if (f.mode == FactorMode::kDisabled || f.excluded) continue;
     evaluate(f, r.data(), s.ia >= 0 ? ja.data() : nullptr, s.ib >= 0 ? jb.data() : nullptr);
     double w = 1.0;
     if (f.mode == FactorMode::kRobust) {
@@ -311,12 +311,81 @@ bool SparsePoseGraphSolver::factorize() {
   return decompositions_->simplicial.info() == Eigen::Success;
 }
 
-Eigen::VectorXd SparsePoseGraphSolver::solve(const Eigen::VectorXd& rhs) {
+Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
   if (supernodal_) {
     keepCholmodSerial();
     return decompositions_->supernodal.solve(rhs);
   }
   return decompositions_->simplicial.solve(rhs);
+}
+
+std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(const std::vector<int>& factors,
+                                                                               int first) {
+  const int d = tangent_;
+  std::vector<Prediction> out(factors.size());
+  for (size_t i = 0; i < factors.size(); ++i) {
+    out[i].residual.resize(d);
+    evaluate(factors_[factors[i]], out[i].residual.data(), nullptr, nullptr);
+    // Nothing free: nothing but the factor's own noise explains it.
+    out[i].covariance = Eigen::MatrixXd::Identity(d, d);
+  }
+  first = std::max(0, std::min(first, numPoses()));
+  if (numPoses() == first || factors.empty()) return out;
+  prepare(first);
+  for (int k : factors) factors_[k].excluded = true;
+  if (d == 3) linearize<3>();
+  else linearize<6>();
+  const double variance_factor = windowVarianceFactor();
+  for (int k : factors) factors_[k].excluded = false;
+  const bool factorized = factorize();
+
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const long n = static_cast<long>(numPoses() - first) * d;
+  double jac_a[36], jac_b[36];
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const Factor& f = factors_[factors[i]];
+    const int va = f.a == kAnchor || f.a < first ? -1 : position_[f.a - first];
+    const int vb = f.b < first ? -1 : position_[f.b - first];
+    if (va < 0 && vb < 0) continue;
+    if (!factorized) {
+      // A singular window (a free pose nothing holds) predicts nothing.
+      out[i].covariance = Eigen::MatrixXd::Constant(d, d, std::numeric_limits<double>::infinity());
+      continue;
+    }
+    evaluate(f, out[i].residual.data(), jac_a, jac_b);
+    // J^T as n x d: the factor's whitened Jacobian rows, in window columns.
+    Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n, d);
+    if (va >= 0) jt.block(static_cast<long>(va) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_a, d, d).transpose();
+    if (vb >= 0) jt.block(static_cast<long>(vb) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_b, d, d).transpose();
+    const Eigen::MatrixXd x = solve(jt);
+    if (x.allFinite()) out[i].covariance = variance_factor * (out[i].covariance + jt.transpose() * x);
+    else out[i].covariance = Eigen::MatrixXd::Constant(d, d, std::numeric_limits<double>::infinity());
+  }
+  return out;
+}
+
+double SparsePoseGraphSolver::windowVarianceFactor() const {
+  // Each robust factor adds its dimension to the redundancy, times its
+  // kernel weight (a rejected one adds nothing); the stated covariances
+  // count as a prior worth one factor, so a window without loop closures
+  // keeps a factor of 1.
+  const double dof = tangent_;
+  double chi2 = dof, redundancy = dof, residual[6];
+  for (const FactorSlot& slot : slots_) {
+    const Factor& f = factors_[slot.factor];
+    if (f.mode == FactorMode::kDisabled || f.excluded) continue;
+    evaluate(f, residual, nullptr, nullptr);
+    const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
+    double w = 1.0;
+    if (f.mode == FactorMode::kRobust) {
+      double rho[3];
+      f.loss.Evaluate(s, rho);
+      w = rho[1];
+      redundancy += w * dof;
+    }
+    chi2 += w * s;
+  }
+  return chi2 / redundancy;
 }
 
 IterationResult SparsePoseGraphSolver::iterate(int first) {

@@ -133,3 +133,63 @@ TEST(SparsePoseGraphSolver, RejectsUnknownPosesAndBadInformation) {
                std::invalid_argument);
   EXPECT_EQ(solver.numFactors(), 0);
 }
+
+// The prediction of a loop closure along a straight chain, where the problem
+// is linear in x: five poses 1 m apart, odometry sigma 0.1 m, and a loop
+// closure 0 -> 4 measuring 4.3 m (sigma 0.1 m, r = 3). The relative position
+// of its endpoints has variance 4 * 0.01, so S_xx = 1 + 0.04 / 0.01 = 5 and
+// r^T S^-1 r = 9 / 5 = 1.8 -- twice the optimal cost once the loop closure is
+// added, which the solver then reaches. Without a loop closure in the window
+// the variance factor is the prior's, 1.
+TEST(SparsePoseGraphSolver, PredictionIsTheCostOfLandingTheFactor) {
+  SparsePoseGraphSolver solver(2);
+  for (int i = 0; i < 5; ++i) solver.addPose(Pose::fromSE2(i, 0, 0));
+  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
+                   FactorMode::kPlain);
+  for (int i = 0; i < 4; ++i)
+    solver.addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kPlain);
+  const int loop = solver.addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
+                                    FactorMode::kPlain);
+  EXPECT_NEAR(solver.whitenedNorm(loop), 3.0, 1e-9);
+  const std::vector<SparsePoseGraphSolver::Prediction> p = solver.predict({loop}, 0);
+  ASSERT_EQ(p.size(), 1u);
+  EXPECT_NEAR(p[0].covariance(0, 0), 5.0, 1e-4);
+  const double mahalanobis2 = p[0].residual.dot(p[0].covariance.ldlt().solve(p[0].residual));
+  EXPECT_NEAR(mahalanobis2, 1.8, 1e-4);
+  for (int k = 0; k < 20; ++k) solver.iterate(0);
+  EXPECT_NEAR(2.0 * solver.totalCost(), 1.8, 1e-4);
+  // With no free endpoint nothing but its own noise explains it.
+  const std::vector<SparsePoseGraphSolver::Prediction> fixed = solver.predict({loop}, 5);
+  EXPECT_TRUE(fixed[0].covariance.isApprox(Eigen::Matrix3d::Identity()));
+  EXPECT_NEAR(fixed[0].residual.norm(), solver.whitenedNorm(loop), 1e-12);
+}
+
+// Stated covariances four times the real variance: the window's loop
+// closures show it (their chi2 per dimension is a quarter), and the
+// prediction's covariance shrinks by that variance factor.
+TEST(SparsePoseGraphSolver, PredictionIsCalibratedByTheWindowsVarianceFactor) {
+  auto chain = [](double information, SparsePoseGraphSolver* solver) {
+    for (int i = 0; i < 5; ++i) solver->addPose(Pose::fromSE2(i, 0, 0));
+    solver->addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
+                      FactorMode::kPlain);
+    for (int i = 0; i < 4; ++i)
+      solver->addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), information * Eigen::Matrix3d::Identity(),
+                        FactorMode::kPlain);
+    return solver->addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), information * Eigen::Matrix3d::Identity(),
+                             FactorMode::kPlain);
+  };
+  SparsePoseGraphSolver plain(2), calibrated(2);
+  const int a = chain(100.0, &plain);
+  const int b = chain(100.0, &calibrated);
+  // A robust loop closure 0 -> 2 that fits the chain exactly: chi2 adds
+  // nothing, the redundancy its weight (0.9 at mu = 0) times 3.
+  const int fit = calibrated.addFactor(0, 2, Pose::fromSE2(2, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
+                                       FactorMode::kRobust);
+  EXPECT_NEAR(calibrated.weight(fit), 0.9, 1e-12);
+  const double s_plain = plain.predict({a}, 0)[0].covariance(0, 0);
+  const double s_calibrated = calibrated.predict({b}, 0)[0].covariance(0, 0);
+  EXPECT_NEAR(s_plain, 5.0, 1e-4);
+  // Variance factor 3 / (3 + 0.9 * 3); the exact loop closure also tightens
+  // the relative position of 0 and 4 (it is stiffer than the odometry).
+  EXPECT_LT(s_calibrated, s_plain * 3.0 / 5.7 + 1e-9);
+}

@@ -81,7 +81,9 @@ struct GncOptions {
   // loop closure whose endpoints both lie within this many poses of its own
   // passes the pairwise consistency test with it (loop_consistency.h, at
   // q(0.95)): a place seen again after a long drift yields a run of such
-  // loop closures. Otherwise it is rejected without a solve. 0: never.
+  // loop closures. Otherwise it is landed if the map explains it better
+  // than chance (loop_prediction.h), and rejected without a solve if not.
+  // 0: corroboration never lands one.
   int support_radius = 5;
   // Safety bound on GNC steps per update (a loop closure needs at most 6).
   int max_gnc_steps = 30;

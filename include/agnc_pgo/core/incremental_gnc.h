@@ -30,8 +30,9 @@ struct LoopClosure {
   int factor = -1;            // the solver's factor id
   GraduationState graduation;
   double distance = 0.0;      // last whitened residual norm r
-  // Rejected on arrival as a confident outlier by its own covariance (beyond
-  // q(0.9)) that no neighbouring loop closure corroborated (yet).
+  // Rejected on arrival: a confident outlier by its own covariance (beyond
+  // q(0.9)) that no neighbouring loop closure corroborated (yet) and that
+  // the map does not explain better than chance (loop_prediction.h).
   bool uncorroborated = false;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (distance < q(0.95) under the convention)
@@ -122,6 +123,9 @@ class IncrementalGnc {
   void judgeFar(const std::vector<int>& far, UpdatePlan* plan);
   void land(int index, UpdatePlan* plan);
   std::vector<int> corroboratingLoops(int index, const std::vector<int>& far) const;
+  // For each far loop closure, whether the map's uncertainty between its
+  // endpoints explains it better than chance (loop_prediction.h).
+  std::vector<bool> explainedByTheMap(const std::vector<int>& loops);
   void planWindow(UpdatePlan* plan) const;
   void selectGraduating(UpdatePlan* plan);
   void runGncSteps(UpdatePlan* plan, UpdateStats* stats);

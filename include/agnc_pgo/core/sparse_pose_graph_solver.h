@@ -109,6 +109,22 @@ class SparsePoseGraphSolver {
   // Robust cost over all factors (0.5 * sum rho).
   double totalCost() const;
 
+  // What the rest of the window predicts for a factor: its whitened residual
+  // r and the covariance S = s0^2 (I + J H^-1 J^T) of r, where J is its
+  // whitened Jacobian and H the Gauss-Newton Hessian of the window (poses >=
+  // first_variable free, older ones fixed) without the given factors.
+  // J H^-1 J^T is the relative covariance of the factor's endpoints, whitened
+  // by its information; r^T S^-1 r is, to first order, how much the window's
+  // optimal cost rises when the factor is added (the data-association test
+  // of iSAM and PCM). s0^2 is the window's a-posteriori variance of unit
+  // weight (windowVarianceFactor): graphs state their noise up to 40 times
+  // the real variance (M3500), which would make the map look uncertain enough
+  // to absorb anything. One factorisation for all the given factors.
+  struct Prediction {
+    Eigen::VectorXd residual;
+    Eigen::MatrixXd covariance;
+  };
+  std::vector<Prediction> predict(const std::vector<int>& factors, int first_variable);
 
  private:
   struct Factor {
@@ -117,6 +133,7 @@ class SparsePoseGraphSolver {
     SigLoss loss;
     FactorMode mode;
     bool dormant = false;
+    bool excluded = false;  // left out of linearize() (predict()), structure unchanged
   };
   // Where a window factor's blocks live in the sparse matrix.
   struct FactorSlot {
@@ -138,7 +155,9 @@ class SparsePoseGraphSolver {
   void prepare(int first);
   // Factorises hessian_; false if it is not positive definite.
   bool factorize();
-  Eigen::VectorXd solve(const Eigen::VectorXd& rhs);
+  // The IRLS-weighted chi2 of the window's factors over their redundancy.
+  double windowVarianceFactor() const;
+  Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs);
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
   void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;

@@ -1,0 +1,85 @@
+// Whether the map explains a far loop closure better than chance: the
+// likelihood ratio of loop_prediction.h, against values computed by hand.
+#include "agnc_pgo/core/loop_prediction.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+namespace agnc_pgo {
+namespace core {
+namespace {
+
+TEST(LoopPrediction, ChanceVolumeIsTheWhitenedVolumeOfTheMapsRelativePoses) {
+  // 100 m x 50 m, every heading; sigma 0.1 m and 0.01 rad: (1000 * 500)
+  // translations and 2 pi / 0.01 rotations in whitened units.
+  const Eigen::Matrix3d information = Eigen::Vector3d(100.0, 100.0, 1e4).asDiagonal();
+  const double expected = std::log(1000.0 * 500.0 * 2.0 * M_PI / 0.01);
+  EXPECT_NEAR(logChanceVolume(Eigen::Vector3d(100.0, 50.0, 2.0 * M_PI), information), expected, 1e-9);
+  Eigen::Matrix<double, 6, 6> information3 = Eigen::Matrix<double, 6, 6>::Identity();
+  Eigen::Matrix<double, 6, 1> extent3;
+  extent3 << 10.0, 20.0, 30.0, 2.0, 3.0, 4.0;
+  EXPECT_NEAR(logChanceVolume(extent3, information3), std::log(6000.0 * 24.0), 1e-9);
+}
+
+TEST(LoopPrediction, AnAxisTheMapDoesNotSpanCountsOneStandardDeviation) {
+  // A straight corridor: no extent across it, yet a false loop closure can
+  // still be off by its own noise there.
+  const Eigen::Matrix3d information = Eigen::Vector3d(4.0, 4.0, 1.0).asDiagonal();
+  EXPECT_NEAR(logChanceVolume(Eigen::Vector3d(30.0, 0.0, 0.0), information), std::log(4.0 * 30.0 * 0.5 * 1.0),
+              1e-9);  // sqrt(det Omega) = 4
+}
+
+TEST(LoopPrediction, OddsAreTheLogOfTheGaussianDensityTimesTheVolume) {
+  const Eigen::Vector3d r(3.0, 0.0, 4.0);
+  const Eigen::Matrix3d s = Eigen::Vector3d(9.0, 1.0, 4.0).asDiagonal();
+  // r^T S^-1 r = 1 + 0 + 4, log det S = log 36.
+  const double expected = 20.0 - 0.5 * (5.0 + std::log(36.0) + 3.0 * std::log(2.0 * M_PI));
+  EXPECT_NEAR(logPredictionOdds(r, s, 20.0), expected, 1e-12);
+}
+
+TEST(LoopPrediction, AWideUncertaintyExplainsNothingBetterThanChance) {
+  // The same small residual: a map that knows where the endpoints are
+  // explains it; one whose endpoints could be anywhere does not, although
+  // the residual is then well inside its covariance.
+  const Eigen::Vector3d r(20.0, -10.0, 5.0);
+  const double log_volume = 15.0;
+  EXPECT_GT(logPredictionOdds(r, 100.0 * Eigen::Matrix3d::Identity(), log_volume), 0.0);
+  const Eigen::Matrix3d wide = 1e8 * Eigen::Matrix3d::Identity();
+  EXPECT_LT(r.dot(wide.inverse() * r), 1e-4);
+  EXPECT_LT(logPredictionOdds(r, wide, log_volume), 0.0);
+}
+
+TEST(LoopPrediction, ANonFiniteOrSingularCovarianceExplainsNothing) {
+  const Eigen::Vector3d r(1.0, 1.0, 1.0);
+  EXPECT_EQ(logPredictionOdds(r, Eigen::Matrix3d::Constant(INFINITY), 10.0), -INFINITY);
+  EXPECT_EQ(logPredictionOdds(r, Eigen::Matrix3d::Zero(), 10.0), -INFINITY);
+}
+
+TEST(LoopPrediction, ExtentIsPerAxisAndHeadingsLieOnTheCircle) {
+  // Headings 170, -170 and 150 degrees: the arc through 180 holds them (40
+  // degrees), not the 340 degrees from -170 to 170.
+  const double deg = M_PI / 180.0;
+  Poses poses{Pose::fromSE2(1.0, -2.0, 170 * deg), Pose::fromSE2(4.0, 3.0, -170 * deg),
+              Pose::fromSE2(-1.0, 0.0, 150 * deg)};
+  EXPECT_TRUE(mapExtent(2, poses).isApprox(Eigen::Vector3d(5.0, 5.0, 40 * deg)));
+  EXPECT_EQ(mapExtent(2, Poses()).size(), 3);
+  EXPECT_NEAR(circularExtent({0.0, M_PI / 2, M_PI, -M_PI / 2}), 1.5 * M_PI, 1e-12);
+}
+
+TEST(LoopPrediction, AGroundVehicleSpansYawButHardlyRollAndPitch) {
+  Poses poses;
+  for (int i = 0; i < 36; ++i)
+    poses.push_back(Pose::fromXYZRPY(i, 0.5 * i, 0.01 * (i % 3), 0.02 * (i % 2), -0.01 * (i % 4), i * 10.0 * M_PI / 180));
+  const Eigen::VectorXd extent = mapExtent(3, poses);
+  ASSERT_EQ(extent.size(), 6);
+  EXPECT_NEAR(extent(0), 35.0, 1e-9);
+  EXPECT_NEAR(extent(2), 0.02, 1e-9);
+  EXPECT_NEAR(extent(3), 0.02, 1e-9);   // roll
+  EXPECT_NEAR(extent(4), 0.03, 1e-9);   // pitch
+  EXPECT_NEAR(extent(5), 350.0 * M_PI / 180, 1e-9);  // yaw
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace agnc_pgo
