@@ -18,7 +18,7 @@ AGNC_PACKAGES=(
   python3-rostopic python3-rosnode python3-rosservice
   python3-geometry-msgs python3-nav-msgs python3-std-srvs python3-visualization-msgs python3-tf2-ros
   libceres-dev libsuitesparse-dev libeigen3-dev libboost-dev
-  librviz-dev rviz libinteractive-markers-dev xvfb xauth imagemagick libgl1-mesa-dri
+  librviz-dev rviz libinteractive-markers-dev xvfb xauth imagemagick xdotool libgl1-mesa-dri
   python3-matplotlib python3-numpy python3-pytest
   clang-14 libclang-rt-14-dev
 )
