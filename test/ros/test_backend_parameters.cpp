@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -53,6 +54,23 @@ void setString(dynamic_reconfigure::Config* msg, const std::string& name, const 
     if (e.name == name) e.value = value;
 }
 
+// `p` with gnc options edited through a GncConfig, as a request would do
+// (the tests name no GncOptions field: the mapping lives in one place).
+BackendParameters withGnc(const BackendParameters& p, const std::function<void(agnc_pgo::GncConfig&)>& edit) {
+  agnc_pgo::GncConfig config = toConfig<agnc_pgo::GncConfig>(p, kGncNamespace);
+  edit(config);
+  dynamic_reconfigure::Config msg;
+  config.__toMessage__(msg);
+  return readRuntimeParameters(p, kGncNamespace, msg);
+}
+
+// An engine's options as the ~gnc server would show them.
+agnc_pgo::GncConfig gncOf(const core::GncOptions& options) {
+  BackendParameters p;
+  p.gnc = options;
+  return toConfig<agnc_pgo::GncConfig>(p, kGncNamespace);
+}
+
 // Expects readRuntimeParameters to refuse `msg` with a message naming `parameter`.
 void expectRefused(const BackendParameters& current, const std::string& ns, const dynamic_reconfigure::Config& msg,
                    const std::string& parameter) {
@@ -98,10 +116,15 @@ TEST(RuntimeParameters, ConfigCarriesTheValuesInForceNotTheCfgDefaults) {
   p.tf_rate = 25.0;
   p.paused = true;
   p.optimize_iterations = 7;
-  p.gnc.schedule = core::ScheduleKind::kRisam;
-  p.gnc.distance = core::DistanceConvention::kSquared;
-  p.gnc.max_gnc_steps = 40;
-  p.gnc.local_window = false;
+  p = withGnc(p, [](agnc_pgo::GncConfig& c) {
+    c.schedule = "risam";
+    c.distance = "squared";
+    c.max_gnc_steps = 40;
+    c.local_window = false;
+  });
+  EXPECT_EQ(describeChanges(BackendParameters(), p),
+            "~paused false -> true, ~tf_rate 20 -> 25, ~optimize_iterations 20 -> 7, ~gnc/schedule agnc -> risam, "
+            "~gnc/distance reference -> squared, ~gnc/local_window true -> false, ~gnc/max_gnc_steps 30 -> 40");
   const agnc_pgo::BackendConfig backend = toConfig<agnc_pgo::BackendConfig>(p, "");
   EXPECT_EQ(backend.tf_rate, 25.0);
   EXPECT_TRUE(backend.paused);
@@ -150,12 +173,12 @@ TEST(RuntimeParameters, ChangesAreDescribedAndOnlyRuntimeOnesCount) {
   BackendParameters after = before;
   EXPECT_EQ(describeChanges(before, after), "");
   after.tf_rate = 5.0;
-  after.gnc.schedule = core::ScheduleKind::kNone;
+  after = withGnc(after, [](agnc_pgo::GncConfig& c) { c.schedule = "none"; });
   EXPECT_EQ(describeChanges(before, after), "~tf_rate 20 -> 5, ~gnc/schedule agnc -> none");
   EXPECT_TRUE(gncOptionsDiffer(before, after));
   after.gnc = before.gnc;
   EXPECT_FALSE(gncOptionsDiffer(before, after));
-  after.gnc.dormant_weight = 2e-6;
+  after = withGnc(after, [](agnc_pgo::GncConfig& c) { c.dormant_weight = 2e-6; });
   EXPECT_EQ(describeChanges(before, after), "~tf_rate 20 -> 5, ~gnc/dormant_weight 1e-06 -> 2e-06");
   // Start-up parameters are no runtime change.
   BackendParameters startup = before;
@@ -228,12 +251,13 @@ TEST(RuntimeParameters, GncChangeRebuildsTheEngineFromItsExactState) {
   addLoop(&g, loop(45, 40, 0.0));
   ASSERT_EQ(g.pendingLoopClosures(), 1);
 
-  BackendParameters next = p;
-  next.gnc.reset = core::ResetPolicy::kNone;
-  next.gnc.max_gnc_steps = 40;
+  const BackendParameters next = withGnc(p, [](agnc_pgo::GncConfig& c) {
+    c.reset = "none";
+    c.max_gnc_steps = 40;
+  });
   EXPECT_TRUE(g.setParameters(next));
-  EXPECT_EQ(g.engine()->options().max_gnc_steps, 40);
-  EXPECT_EQ(g.engine()->options().reset, core::ResetPolicy::kNone);
+  EXPECT_EQ(gncOf(g.engine()->options()).max_gnc_steps, 40);
+  EXPECT_EQ(gncOf(g.engine()->options()).reset, "none");
   const SavedGraph after = g.save();
   ASSERT_EQ(after.estimate.size(), before.estimate.size());
   for (size_t i = 0; i < before.estimate.size(); ++i) {
@@ -275,7 +299,7 @@ TEST(RuntimeParameters, DistanceConventionDecidesTheNextLoopClosure) {
   addLoop(&g, loop(25, 0, 0.4));
   solve(&g);
   EXPECT_TRUE(g.engine()->loopClosures()[0].inlier);
-  p.gnc.distance = core::DistanceConvention::kSquared;
+  p = withGnc(p, [](agnc_pgo::GncConfig& c) { c.distance = "squared"; });
   ASSERT_TRUE(g.setParameters(p));
   addLoop(&g, loop(59, 35, 0.4));
   solve(&g);
