@@ -13,12 +13,12 @@ AGNC_PACKAGES=(
   ros-nav-msgs ros-visualization-msgs ros-std-srvs
   libroscpp-dev libstd-msgs-dev libgeometry-msgs-dev libvisualization-msgs-dev libnav-msgs-dev
   libstd-srvs-dev libnodeletlib-dev libnodeletlib-tools pluginlib-dev libtf2-ros-dev
-  libtf2-geometry-msgs-dev
+  libtf2-geometry-msgs-dev libdynamic-reconfigure-config-init-mutex-dev python3-dynamic-reconfigure
   libgtest-dev librostest-dev python3-rostest python3-roslaunch rosout rosbash
   python3-rostopic python3-rosnode python3-rosservice
   python3-geometry-msgs python3-nav-msgs python3-std-srvs python3-visualization-msgs python3-tf2-ros
   libceres-dev libsuitesparse-dev libeigen3-dev libboost-dev
-  librviz-dev rviz libinteractive-markers-dev xvfb xauth imagemagick libgl1-mesa-dri
+  librviz-dev rviz libinteractive-markers-dev xvfb xauth imagemagick xdotool libgl1-mesa-dri
   python3-matplotlib python3-numpy python3-pytest
   clang-14 libclang-rt-14-dev
 )

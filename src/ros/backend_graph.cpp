@@ -51,6 +51,9 @@ void BackendGraph::reset() {
   decisions_.clear();
   updates_ = 0;
   has_last_odometry_ = false;
+  restarted_.clear();
+  carried_iterations_ = carried_gnc_steps_ = 0;
+  carried_uncorroborated_.clear();
 }
 
 std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe) {
@@ -202,8 +205,9 @@ void BackendGraph::rollBack() {
     saved.loops[k].graduation = last_good_.graduation[k];
     saved.loops[k].mode = last_good_.modes[k];
   }
-  engine_ = build(saved);
+  adopt(build(saved));
   loop_meta_.resize(saved.loops.size());
+  restarted_.clear();
   rememberGood();
 }
 
@@ -216,6 +220,19 @@ bool BackendGraph::guardedSolve(const std::string& what, const std::function<cor
     *error = what + " failed (" + e.what() + "); kept the last good estimate";
     rollBack();
     return false;
+  }
+  restarted_.clear();
+  // A carried uncorroborated flag holds until an update touches the loop closure.
+  const auto& loops = engine_->loopClosures();
+  for (size_t k = 0; k < carried_uncorroborated_.size() && k < loops.size(); ++k) {
+    if (!carried_uncorroborated_[k]) continue;
+    const core::GraduationState& now = loops[k].graduation;
+    const bool known = k < last_good_.graduation.size();
+    const core::GraduationState& before = known ? last_good_.graduation[k] : now;
+    if (!known || now.mu != before.mu || now.step != before.step || now.init_step != before.init_step ||
+        now.mu_init != before.mu_init || now.steps_at_one != before.steps_at_one ||
+        now.graduating != before.graduating || loops[k].override_mode != last_good_.modes[k])
+      carried_uncorroborated_[k] = false;
   }
   rememberGood();
   ++updates_;
@@ -257,18 +274,23 @@ int BackendGraph::setOverride(int index, core::LoopOverride mode) {
     decisions_before_overrides_.clear();
     for (const auto& loop : loops) decisions_before_overrides_.push_back(loop.inlier);
   }
-  engine_->setOverride(index, mode);
+  setEngineOverride(index, mode);
   if (mode != core::LoopOverride::kAuto) return 0;
   int regraduating = 0;
   for (size_t k = 0; k < decisions_before_overrides_.size(); ++k) {
     const core::LoopClosure& loop = loops[k];
     if (static_cast<int>(k) == index || loop.override_mode != core::LoopOverride::kAuto) continue;
     if (loop.inlier == decisions_before_overrides_[k]) continue;
-    engine_->setOverride(static_cast<int>(k), core::LoopOverride::kAuto);  // restarts its graduation
+    setEngineOverride(static_cast<int>(k), core::LoopOverride::kAuto);  // restarts its graduation
     ++regraduating;
   }
   if (forced() == 0) decisions_before_overrides_.clear();
   return regraduating;
+}
+
+void BackendGraph::setEngineOverride(int index, core::LoopOverride mode) {
+  engine_->setOverride(index, mode);
+  restarted_.push_back(index);
 }
 
 int BackendGraph::findLoopClosure(const ros::Time& from_stamp, const ros::Time& to_stamp) const {
@@ -339,6 +361,45 @@ std::unique_ptr<core::IncrementalGnc> BackendGraph::build(const SavedGraph& save
   return engine;
 }
 
+void BackendGraph::adopt(std::unique_ptr<core::IncrementalGnc> engine) {
+  carried_iterations_ += engine_->totalIterations();
+  carried_gnc_steps_ += engine_->totalGncSteps();
+  const auto& old_loops = engine_->loopClosures();
+  std::vector<bool> carried(engine->loopClosures().size(), false);
+  for (size_t k = 0; k < carried.size() && k < old_loops.size(); ++k)
+    carried[k] = old_loops[k].uncorroborated || (k < carried_uncorroborated_.size() && carried_uncorroborated_[k]);
+  carried_uncorroborated_ = carried;
+  engine_ = std::move(engine);
+}
+
+bool BackendGraph::setParameters(const BackendParameters& next) {
+  const bool rebuild = gncOptionsDiffer(parameters_, next);
+  const BackendParameters previous = parameters_;
+  parameters_ = next;
+  try {
+    if (rebuild && numNodes() == 0) {
+      adopt(std::make_unique<core::IncrementalGnc>(parameters_.dimension, parameters_.gnc));
+    } else if (rebuild) {
+      SavedGraph saved = save();
+      // Restore what was solved; the loop closures that arrived since (paused)
+      // are the last ones and stay pending.
+      const size_t pending = static_cast<size_t>(engine_->pendingLoopClosures());
+      const std::vector<SavedLoop> arrived(saved.loops.end() - pending, saved.loops.end());
+      saved.loops.resize(saved.loops.size() - pending);
+      saved.has_state = true;
+      std::unique_ptr<core::IncrementalGnc> engine = build(saved);
+      for (const SavedLoop& l : arrived) engine->addLoopClosure(l.edge);
+      for (int index : restarted_) engine->setOverride(index, engine_->loopClosures()[index].override_mode);
+      adopt(std::move(engine));
+    }
+  } catch (...) {
+    parameters_ = previous;
+    throw;
+  }
+  matcher_.setTolerance(parameters_.stamp_tolerance);
+  return rebuild;
+}
+
 void BackendGraph::load(const SavedGraph& saved) {
   std::unique_ptr<core::IncrementalGnc> engine = build(saved);  // throws: graph intact
   reset();
@@ -405,7 +466,7 @@ GraphSnapshotPtr BackendGraph::snapshot(bool with_edges) const {
     edge.score = loop_meta_[k].score;
     edge.test_distance = engine_->schedule().distanceOf(l.distance);
     edge.threshold = engine_->schedule().thresholds().q95;
-    edge.uncorroborated = l.uncorroborated;
+    edge.uncorroborated = l.uncorroborated || (k < carried_uncorroborated_.size() && carried_uncorroborated_[k]);
     edge.dormant = l.dormant;
     edge.decided_in_update = k < decisions_.size() ? decisions_[k].update : updates_;
     s->edges.push_back(edge);

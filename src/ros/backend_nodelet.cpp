@@ -14,6 +14,8 @@ namespace ros_backend {
 
 BackendNodelet::~BackendNodelet() {
   tf_timer_.stop();
+  backend_server_.reset();
+  gnc_server_.reset();
   if (worker_) worker_->stop();
 }
 
@@ -26,6 +28,7 @@ void BackendNodelet::onInit() {
     NODELET_FATAL_STREAM("agnc_pgo: invalid parameters, not starting: " << e.what());
     throw std::runtime_error(std::string("agnc_pgo: invalid parameters: ") + e.what());
   }
+  current_ = parameters_;
   NODELET_INFO_STREAM(describe(parameters_));
   for (const std::string& name : unknown)
     NODELET_WARN_STREAM("agnc_pgo: unknown parameter ~" << name << " (ignored; misspelt? see config/default.yaml)");
@@ -71,6 +74,38 @@ void BackendNodelet::onInit() {
       mt.advertiseService("set_loop_closure_status", &BackendNodelet::setLoopClosureStatus, this));
   tf_timer_ = pnh.createWallTimer(ros::WallDuration(1.0 / parameters_.tf_rate), &BackendNodelet::tfTimerCallback,
                                   this);
+
+  // Runtime parameters: the servers start from the validated start-up values
+  // (not the .cfg defaults), then take requests on this node's queue.
+  boost::recursive_mutex::scoped_lock lock(reconfigure_mutex_);
+  backend_server_ = std::make_unique<dynamic_reconfigure::Server<agnc_pgo::BackendConfig>>(reconfigure_mutex_, pnh);
+  backend_server_->updateConfig(toConfig<agnc_pgo::BackendConfig>(current_, ""));
+  backend_server_->setCallback(
+      [this](agnc_pgo::BackendConfig& config, uint32_t) { reconfigure(config, ""); });
+  gnc_server_ = std::make_unique<dynamic_reconfigure::Server<agnc_pgo::GncConfig>>(
+      reconfigure_mutex_, ros::NodeHandle(pnh, kGncNamespace));
+  gnc_server_->updateConfig(toConfig<agnc_pgo::GncConfig>(current_, kGncNamespace));
+  gnc_server_->setCallback(
+      [this](agnc_pgo::GncConfig& config, uint32_t) { reconfigure(config, kGncNamespace); });
+}
+
+template <class Config>
+void BackendNodelet::reconfigure(Config& config, const std::string& ns) {
+  boost::recursive_mutex::scoped_lock lock(reconfigure_mutex_);
+  dynamic_reconfigure::Config request;
+  config.__toMessage__(request);
+  BackendParameters next;
+  try {
+    next = readRuntimeParameters(current_, ns, request);
+  } catch (const std::exception& e) {
+    NODELET_WARN_STREAM("agnc_pgo: dynamic_reconfigure request refused, previous values kept: " << e.what());
+    config = toConfig<Config>(current_, ns);
+    return;
+  }
+  if (describeChanges(current_, next).empty()) return;
+  if (next.tf_rate != current_.tf_rate) tf_timer_.setPeriod(ros::WallDuration(1.0 / next.tf_rate));
+  current_ = next;
+  worker_->reconfigure(next);  // logged when applied
 }
 
 // ---------------------------------------------------------------- callbacks: validate + enqueue
@@ -79,7 +114,7 @@ void BackendNodelet::odometryCallback(const nav_msgs::Odometry::ConstPtr& messag
   try {
     const std::string bad_pose = checkPose(message->pose.pose);
     if (!bad_pose.empty()) return worker_->rejectOdometry(bad_pose);
-    const std::string bad_position = checkPosition(message->pose.pose, parameters_.max_position);
+    const std::string bad_position = checkPosition(message->pose.pose, current_.max_position);
     if (!bad_position.empty()) return worker_->rejectOdometry(bad_position);
     if (message->header.stamp.isZero()) return worker_->rejectOdometry("zero stamp");
     if (!warned_frame_ && !message->header.frame_id.empty() && message->header.frame_id != parameters_.odom_frame) {
@@ -94,7 +129,7 @@ void BackendNodelet::odometryCallback(const nav_msgs::Odometry::ConstPtr& messag
       if (isZero(message->pose.covariance))
         return worker_->rejectOdometry("zero covariance with ~use_odometry_covariance");
       input.information = informationFromCovariance(message->pose.covariance, parameters_.dimension);
-      const std::string bad_information = checkInformation(input.information, parameters_.max_information);
+      const std::string bad_information = checkInformation(input.information, current_.max_information);
       if (!bad_information.empty()) return worker_->rejectOdometry(bad_information);
     }
     worker_->enqueueOdometry(input);
@@ -108,7 +143,7 @@ void BackendNodelet::loopClosureCallback(const agnc_pgo::LoopClosure::ConstPtr& 
   try {
     const std::string bad_pose = checkPose(message->relative_pose);
     if (!bad_pose.empty()) return worker_->rejectLoopClosure(bad_pose);
-    const std::string bad_position = checkPosition(message->relative_pose, parameters_.max_position);
+    const std::string bad_position = checkPosition(message->relative_pose, current_.max_position);
     if (!bad_position.empty()) return worker_->rejectLoopClosure(bad_position);
     // The score is stored in saved graphs; NaN there would make them unloadable.
     if (!std::isfinite(message->score)) return worker_->rejectLoopClosure("score is NaN/Inf");
@@ -120,7 +155,7 @@ void BackendNodelet::loopClosureCallback(const agnc_pgo::LoopClosure::ConstPtr& 
     input.measurement = toDimension(fromMsg(message->relative_pose), parameters_.dimension);
     if (!isZero(message->covariance)) {
       input.information = informationFromCovariance(message->covariance, parameters_.dimension);
-      const std::string bad_information = checkInformation(input.information, parameters_.max_information);
+      const std::string bad_information = checkInformation(input.information, current_.max_information);
       if (!bad_information.empty()) return worker_->rejectLoopClosure(bad_information);
     }
     input.source = message->source;
@@ -133,7 +168,7 @@ void BackendNodelet::loopClosureCallback(const agnc_pgo::LoopClosure::ConstPtr& 
 }
 
 void BackendNodelet::tfTimerCallback(const ros::WallTimerEvent&) {
-  const ros::Time stamp = ros::Time::now() + ros::Duration(parameters_.tf_future_tolerance);
+  const ros::Time stamp = ros::Time::now() + ros::Duration(current_.tf_future_tolerance);
   if (stamp <= last_tf_stamp_) return;  // never repeat a stamp (sim time paused, clock jumps)
   last_tf_stamp_ = stamp;
   const core::Pose m = worker_->mapToOdom();
@@ -203,7 +238,12 @@ bool BackendNodelet::reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Respo
   return respond(worker_->reset(), &res);
 }
 bool BackendNodelet::pause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
-  return respond(worker_->setPaused(req.data), &res);
+  respond(worker_->setPaused(req.data), &res);
+  // The reconfigure server shows what is in force.
+  boost::recursive_mutex::scoped_lock lock(reconfigure_mutex_);
+  current_.paused = req.data;
+  if (backend_server_) backend_server_->updateConfig(toConfig<agnc_pgo::BackendConfig>(current_, ""));
+  return true;
 }
 bool BackendNodelet::setLoopClosureStatus(agnc_pgo::SetLoopClosureStatus::Request& req,
                                           agnc_pgo::SetLoopClosureStatus::Response& res) {

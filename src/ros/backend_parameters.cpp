@@ -1,6 +1,8 @@
 #include "agnc_pgo/ros/backend_parameters.h"
 
+#include <algorithm>
 #include <cmath>
+#include <type_traits>
 #include <sstream>
 #include <stdexcept>
 #include <set>
@@ -85,6 +87,156 @@ void getSigmas(ParameterSource& nh, const std::string& name, Sigmas* sigmas) {
   }
 }
 
+// ---------------------------------------------------------------- the runtime parameters, once
+// Every runtime parameter with its ROS name: readParameters(), the
+// dynamic_reconfigure mapping, describe() and describeChanges() all go
+// through these two lists. `P` is BackendParameters or const BackendParameters.
+
+// ~NAME (cfg/Backend.cfg).
+template <class P, class F>
+void forEachBackendRuntimeParameter(P& p, F&& f) {
+  f("paused", p.paused);
+  f("tf_rate", p.tf_rate);
+  f("tf_future_tolerance", p.tf_future_tolerance);
+  f("visualization_rate", p.visualization_rate);
+  f("status_rate", p.status_rate);
+  f("stamp_tolerance", p.stamp_tolerance);
+  f("loop_closure_hold_time", p.loop_closure_hold_time);
+  f("max_position", p.max_position);
+  f("max_information", p.max_information);
+  f("max_odometry_jump", p.max_odometry_jump);
+  f("optimize_iterations", p.optimize_iterations);
+}
+
+// ~gnc/NAME (cfg/Gnc.cfg): the core engine's options.
+template <class O, class F>
+void forEachGncOption(O& o, F&& f) {
+  f("schedule", o.schedule);
+  f("distance", o.distance);
+  f("reset", o.reset);
+  f("shape_c", o.shape_c);
+  f("fixed_alpha", o.fixed_alpha);
+  f("reference_alpha_direction", o.reference_alpha_direction);
+  f("max_settle_iterations", o.max_settle_iterations);
+  f("convergence_step", o.convergence_step);
+  f("adapt_initial_mu", o.adapt_initial_mu);
+  f("local_window", o.local_window);
+  f("max_window_poses", o.max_window_poses);
+  f("global_refinement", o.global_refinement);
+  f("max_iterations_per_step", o.max_iterations_per_step);
+  f("trust_region", o.trust_region);
+  f("trust_region_radius", o.trust_region_radius);
+  f("max_trust_region_radius", o.max_trust_region_radius);
+  f("dormant_weight", o.dormant_weight);
+  f("support_radius", o.support_radius);
+  f("max_gnc_steps", o.max_gnc_steps);
+}
+
+template <class P, class F>
+void forEachRuntimeParameter(P& p, const std::string& ns, F&& f) {
+  if (ns.empty()) forEachBackendRuntimeParameter(p, f);
+  else if (ns == kGncNamespace) forEachGncOption(p.gnc, f);
+  else throw std::logic_error("no reconfigure server ~" + ns);
+}
+
+// The enums as text (yaml strings, dynamic_reconfigure str_t).
+std::string text(core::ScheduleKind v) { return core::toString(v); }
+std::string text(core::DistanceConvention v) { return core::toString(v); }
+std::string text(core::ResetPolicy v) { return core::toString(v); }
+std::string text(bool v) { return v ? "true" : "false"; }
+std::string text(int v) { return std::to_string(v); }
+std::string text(double v) {
+  std::ostringstream out;
+  out.precision(12);  // enough to see any change a person makes, 0.1 stays "0.1"
+  out << v;
+  return out.str();
+}
+void parse(const std::string& t, core::ScheduleKind* v) { *v = core::parseSchedule(t); }
+void parse(const std::string& t, core::DistanceConvention* v) { *v = core::parseDistanceConvention(t); }
+void parse(const std::string& t, core::ResetPolicy* v) { *v = core::parseResetPolicy(t); }
+
+// An enum from its text; a bad one names the parameter.
+template <class E>
+void parseNamed(const std::string& name, const std::string& t, E* v) {
+  try {
+    parse(t, v);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument("parameter ~" + name + ": " + e.what());
+  }
+}
+
+// Reads the parameters of a list from the parameter server (~prefix + name).
+struct ServerReader {
+  ParameterSource& nh;
+  std::string prefix;
+  void operator()(const char* name, double& v) { getDouble(nh, prefix + name, &v); }
+  void operator()(const char* name, int& v) { get(nh, prefix + name, &v, "an integer"); }
+  void operator()(const char* name, bool& v) { get(nh, prefix + name, &v, "a bool"); }
+  template <class E, typename std::enable_if<std::is_enum<E>::value, int>::type = 0>
+  void operator()(const char* name, E& v) {
+    if (!nh.hasParam(prefix + name)) return;
+    std::string t;
+    get(nh, prefix + name, &t, "a string");
+    parseNamed(prefix + name, t, &v);
+  }
+};
+
+// dynamic_reconfigure Config message entries: find by name.
+template <class Entry, class T>
+bool findEntry(const std::vector<Entry>& entries, const std::string& name, T* value) {
+  for (const Entry& e : entries)
+    if (e.name == name) {
+      *value = e.value;
+      return true;
+    }
+  return false;
+}
+template <class Entry, class T>
+bool setEntry(std::vector<Entry>* entries, const std::string& name, const T& value) {
+  for (Entry& e : *entries)
+    if (e.name == name) {
+      e.value = value;
+      return true;
+    }
+  return false;
+}
+
+// Applies a Config message's entries to the fields of a list.
+struct MessageReader {
+  const dynamic_reconfigure::Config& msg;
+  std::string prefix;  // for messages: "gnc/"
+  void operator()(const char* name, double& v) { findEntry(msg.doubles, name, &v); }
+  void operator()(const char* name, int& v) { findEntry(msg.ints, name, &v); }
+  void operator()(const char* name, bool& v) { findEntry(msg.bools, name, &v); }
+  template <class E, typename std::enable_if<std::is_enum<E>::value, int>::type = 0>
+  void operator()(const char* name, E& v) {
+    std::string t;
+    if (findEntry(msg.strs, name, &t)) parseNamed(prefix + name, t, &v);
+  }
+};
+
+// Writes the fields of a list into a Config message's entries; counts them.
+struct MessageWriter {
+  dynamic_reconfigure::Config* msg;
+  int written = 0;
+  void operator()(const char* name, double v) { written += setEntry(&msg->doubles, name, v); }
+  void operator()(const char* name, int v) { written += setEntry(&msg->ints, name, v); }
+  void operator()(const char* name, bool v) { written += setEntry(&msg->bools, name, static_cast<uint8_t>(v)); }
+  template <class E, typename std::enable_if<std::is_enum<E>::value, int>::type = 0>
+  void operator()(const char* name, E v) { written += setEntry(&msg->strs, name, text(v)); }
+};
+
+// "name value" for the log / "~name before -> after" for changes.
+struct Describer {
+  std::ostringstream* out;
+  bool first = true;
+  template <class T>
+  void operator()(const char* name, const T& v) {
+    *out << (first ? "" : ", ") << name << " " << text(v);
+    first = false;
+  }
+};
+
 std::string list(const Sigmas& s) {
   std::ostringstream out;
   out << "[" << s[0] << ", " << s[1] << ", " << s[2] << ", " << s[3] << ", " << s[4] << ", " << s[5] << "]";
@@ -125,7 +277,8 @@ void validate(const BackendParameters& p) {
   try {
     core::validate(p.gnc);
   } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(std::string("GNC parameters: ") + e.what());
+    // core::validate's messages start with the field's name.
+    throw std::invalid_argument("parameter ~" + std::string(kGncNamespace) + "/" + e.what());
   }
 }
 
@@ -143,51 +296,8 @@ BackendParameters readParameters(const ros::NodeHandle& private_nh, std::vector<
   get(nh, "use_odometry_covariance", &p.use_odometry_covariance, "a bool");
   getSigmas(nh, "loop_closure_sigmas", &p.loop_closure_sigmas);
   getDouble(nh, "prior_sigma", &p.prior_sigma);
-  getDouble(nh, "stamp_tolerance", &p.stamp_tolerance);
-  getDouble(nh, "loop_closure_hold_time", &p.loop_closure_hold_time);
-  getDouble(nh, "max_position", &p.max_position);
-  getDouble(nh, "max_information", &p.max_information);
-  getDouble(nh, "max_odometry_jump", &p.max_odometry_jump);
-
-  std::string text;
-  try {
-    if (nh.hasParam("gnc/schedule")) {
-      get(nh, "gnc/schedule", &text, "a string");
-      p.gnc.schedule = core::parseSchedule(text);
-    }
-    if (nh.hasParam("gnc/distance")) {
-      get(nh, "gnc/distance", &text, "a string");
-      p.gnc.distance = core::parseDistanceConvention(text);
-    }
-    if (nh.hasParam("gnc/reset")) {
-      get(nh, "gnc/reset", &text, "a string");
-      p.gnc.reset = core::parseResetPolicy(text);
-    }
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(std::string("parameter ~gnc/...: ") + e.what());
-  }
-  getDouble(nh, "gnc/shape_c", &p.gnc.shape_c);
-  getDouble(nh, "gnc/fixed_alpha", &p.gnc.fixed_alpha);
-  get(nh, "gnc/reference_alpha_direction", &p.gnc.reference_alpha_direction, "a bool");
-  get(nh, "gnc/max_settle_iterations", &p.gnc.max_settle_iterations, "an integer");
-  getDouble(nh, "gnc/convergence_step", &p.gnc.convergence_step);
-  get(nh, "gnc/adapt_initial_mu", &p.gnc.adapt_initial_mu, "a bool");
-  get(nh, "gnc/local_window", &p.gnc.local_window, "a bool");
-  get(nh, "gnc/max_window_poses", &p.gnc.max_window_poses, "an integer");
-  get(nh, "gnc/max_gnc_steps", &p.gnc.max_gnc_steps, "an integer");
-  get(nh, "gnc/global_refinement", &p.gnc.global_refinement, "a bool");
-  get(nh, "gnc/max_iterations_per_step", &p.gnc.max_iterations_per_step, "an integer");
-  get(nh, "gnc/trust_region", &p.gnc.trust_region, "a bool");
-  getDouble(nh, "gnc/trust_region_radius", &p.gnc.trust_region_radius);
-  getDouble(nh, "gnc/max_trust_region_radius", &p.gnc.max_trust_region_radius);
-  getDouble(nh, "gnc/dormant_weight", &p.gnc.dormant_weight);
-  get(nh, "gnc/support_radius", &p.gnc.support_radius, "an integer");
-  get(nh, "optimize_iterations", &p.optimize_iterations, "an integer");
-
-  getDouble(nh, "tf_rate", &p.tf_rate);
-  getDouble(nh, "tf_future_tolerance", &p.tf_future_tolerance);
-  getDouble(nh, "visualization_rate", &p.visualization_rate);
-  getDouble(nh, "status_rate", &p.status_rate);
+  forEachBackendRuntimeParameter(p, ServerReader{nh, ""});
+  forEachGncOption(p.gnc, ServerReader{nh, std::string(kGncNamespace) + "/"});
   get(nh, "publish_pose_graph", &p.publish_pose_graph, "a bool");
   getDouble(nh, "marker_node_scale", &p.marker_node_scale);
   getDouble(nh, "marker_line_width", &p.marker_line_width);
@@ -207,25 +317,79 @@ std::string describe(const BackendParameters& p) {
       << "  odometry_sigmas " << list(p.odometry_sigmas)
       << (p.use_odometry_covariance ? " (messages' covariance used)" : "") << "\n"
       << "  loop_closure_sigmas " << list(p.loop_closure_sigmas) << ", prior_sigma " << p.prior_sigma << "\n"
-      << "  stamp_tolerance " << p.stamp_tolerance << " s, loop_closure_hold_time " << p.loop_closure_hold_time
-      << " s\n"
-      << "  plausibility: max_position " << p.max_position << " m, max_information " << p.max_information
-      << ", max_odometry_jump " << p.max_odometry_jump << " m\n"
-      << "  gnc: schedule " << core::toString(p.gnc.schedule) << ", distance "
-      << core::toString(p.gnc.distance) << ", reset " << core::toString(p.gnc.reset) << ", shape_c "
-      << p.gnc.shape_c << ", local_window " << (p.gnc.local_window ? "true" : "false")
-      << " (at most " << p.gnc.max_window_poses << " poses, 0: unbounded)"
-      << ", global_refinement " << (p.gnc.global_refinement ? "true" : "false")
-      << ", trust_region " << (p.gnc.trust_region ? "true" : "false") << " (radius "
-      << p.gnc.trust_region_radius << " per update, max " << p.gnc.max_trust_region_radius << ")"
-      << ", max_iterations_per_step " << p.gnc.max_iterations_per_step << ", dormant_weight "
-      << p.gnc.dormant_weight << ", support_radius " << p.gnc.support_radius << " poses, max_settle_iterations " << p.gnc.max_settle_iterations << ", convergence_step "
-      << p.gnc.convergence_step << ", max_gnc_steps " << p.gnc.max_gnc_steps << "\n"
-      << "  tf_rate " << p.tf_rate << " Hz (future-dated " << p.tf_future_tolerance << " s), visualization_rate "
-      << p.visualization_rate << " Hz, status_rate " << p.status_rate << " Hz, publish_pose_graph "
-      << (p.publish_pose_graph ? "true" : "false")
-      << (p.initial_graph.empty() ? std::string() : "\n  initial_graph " + p.initial_graph);
+      << "  publish_pose_graph " << (p.publish_pose_graph ? "true" : "false") << ", marker_node_scale "
+      << p.marker_node_scale << " m, marker_line_width " << p.marker_line_width << " m, queue_size "
+      << p.queue_size << ", max_queue " << p.max_queue << "\n";
+  Describer runtime{&out};
+  out << "  runtime (dynamic_reconfigure ~): ";
+  forEachBackendRuntimeParameter(p, runtime);
+  Describer gnc{&out};
+  out << "\n  runtime (dynamic_reconfigure ~gnc): ";
+  forEachGncOption(p.gnc, gnc);
+  out      << (p.initial_graph.empty() ? std::string() : "\n  initial_graph " + p.initial_graph);
   return out.str();
+}
+
+// ---------------------------------------------------------------- runtime (dynamic_reconfigure)
+
+const char* const kGncNamespace = "gnc";
+
+std::vector<std::string> runtimeParameterNames(const std::string& ns) {
+  std::vector<std::string> names;
+  const BackendParameters p;
+  forEachRuntimeParameter(p, ns, [&names](const char* name, const auto&) { names.push_back(name); });
+  return names;
+}
+
+void writeRuntimeParameters(const BackendParameters& p, const std::string& ns, dynamic_reconfigure::Config* msg) {
+  MessageWriter writer{msg};
+  forEachRuntimeParameter(p, ns, writer);
+  const int entries = static_cast<int>(msg->bools.size() + msg->ints.size() + msg->doubles.size() + msg->strs.size());
+  if (writer.written != entries) {
+    // An entry of the server that no runtime parameter maps: cfg and lists disagree.
+    std::string names;
+    const std::vector<std::string> known = runtimeParameterNames(ns);
+    const auto check = [&](const std::string& name) {
+      if (std::find(known.begin(), known.end(), name) == known.end()) names += " " + name;
+    };
+    for (const auto& e : msg->bools) check(e.name);
+    for (const auto& e : msg->ints) check(e.name);
+    for (const auto& e : msg->doubles) check(e.name);
+    for (const auto& e : msg->strs) check(e.name);
+    throw std::logic_error("reconfigure server ~" + ns + ": no runtime parameter for" + names);
+  }
+}
+
+BackendParameters readRuntimeParameters(const BackendParameters& current, const std::string& ns,
+                                        const dynamic_reconfigure::Config& msg) {
+  BackendParameters next = current;
+  forEachRuntimeParameter(next, ns, MessageReader{msg, ns.empty() ? std::string() : ns + "/"});
+  validate(next);
+  return next;
+}
+
+std::string describeChanges(const BackendParameters& before, const BackendParameters& after) {
+  std::vector<std::string> changes;
+  for (const std::string& ns : {std::string(), std::string(kGncNamespace)}) {
+    std::vector<std::string> old_values;
+    forEachRuntimeParameter(before, ns, [&](const char*, const auto& v) { old_values.push_back(text(v)); });
+    size_t i = 0;
+    forEachRuntimeParameter(after, ns, [&](const char* name, const auto& v) {
+      const std::string now = text(v);
+      if (now != old_values[i])
+        changes.push_back("~" + (ns.empty() ? std::string() : ns + "/") + name + " " + old_values[i] + " -> " + now);
+      ++i;
+    });
+  }
+  std::string out;
+  for (const std::string& c : changes) out += (out.empty() ? "" : ", ") + c;
+  return out;
+}
+
+bool gncOptionsDiffer(const BackendParameters& a, const BackendParameters& b) {
+  BackendParameters only_gnc = a;
+  only_gnc.gnc = b.gnc;
+  return !describeChanges(a, only_gnc).empty();
 }
 
 }  // namespace ros_backend

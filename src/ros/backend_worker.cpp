@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <sstream>
 
 #include <ros/console.h>
 
@@ -17,7 +18,11 @@ constexpr double kWarningInterval = 5.0;   // [s] at most one logged warning of 
 }
 
 BackendWorker::BackendWorker(const BackendParameters& parameters, BackendOutput* output)
-    : parameters_(parameters), output_(output), graph_(parameters) {}
+    : parameters_(parameters),
+      max_queue_(parameters.max_queue),
+      output_(output),
+      graph_(parameters),
+      paused_(parameters.paused) {}
 
 BackendWorker::~BackendWorker() { stop(); }
 
@@ -85,7 +90,7 @@ void BackendWorker::rejectLoopClosure(const std::string& reason) {
 void BackendWorker::push(Item item) {
   {
     std::lock_guard<std::mutex> lock(queue_mutex_);
-    if (static_cast<int>(queue_.size()) >= parameters_.max_queue && item.kind != Item::Kind::kCommand) {
+    if (static_cast<int>(queue_.size()) >= max_queue_ && item.kind != Item::Kind::kCommand) {
       // Fall through to the rejection below (outside the lock).
     } else {
       queue_.push_back(std::move(item));
@@ -127,6 +132,16 @@ CommandResult BackendWorker::call(std::function<CommandResult()> command) {
   if (future.wait_for(std::chrono::duration<double>(kCommandTimeout)) != std::future_status::ready)
     return {false, "timed out waiting for the back-end worker"};
   return future.get();
+}
+
+void BackendWorker::post(std::function<CommandResult()> command) {
+  auto nobody_waits = std::make_shared<std::promise<CommandResult>>();
+  {
+    std::lock_guard<std::mutex> lock(queue_mutex_);
+    if (stopping_) return;
+    queue_.push_back(Item{Item::Kind::kCommand, {}, {}, std::move(command), nobody_waits});
+  }
+  queue_cv_.notify_one();
 }
 
 core::Pose BackendWorker::mapToOdom() const {
@@ -296,8 +311,8 @@ StatusInfo BackendWorker::status() const {
     s.counters = counters_;
   }
   s.last_update = last_update_;
-  s.total_gnc_steps = engine->totalGncSteps();
-  s.total_iterations = engine->totalIterations();
+  s.total_gnc_steps = graph_.totalGncSteps();
+  s.total_iterations = graph_.totalIterations();
   s.latency_p50 = latencies_ms_.percentile(50);
   s.latency_p95 = latencies_ms_.percentile(95);
   s.latency_max = latencies_ms_.max();
@@ -396,8 +411,39 @@ CommandResult BackendWorker::reset() {
 CommandResult BackendWorker::setPaused(bool paused) {
   return call([this, paused]() -> CommandResult {
     paused_ = paused;
+    parameters_.paused = paused;
     if (!paused_ && needs_update_) solve();
     return {true, paused ? "paused: messages are added, no solves" : "resumed"};
+  });
+}
+
+void BackendWorker::reconfigure(const BackendParameters& next) {
+  post([this, next]() -> CommandResult {
+    BackendParameters in_force = parameters_;
+    in_force.paused = paused_;
+    const std::string changes = describeChanges(in_force, next);
+    if (changes.empty()) return {true, "no change"};
+    const double start = now();
+    bool rebuilt = false;
+    try {
+      rebuilt = graph_.setParameters(next);
+    } catch (const std::exception& e) {
+      const std::string message = "runtime parameters not applied (" + changes + "): " + e.what();
+      ROS_WARN_STREAM("agnc_pgo: " << message);
+      return {false, message};
+    }
+    parameters_ = next;
+    std::ostringstream message;
+    message << "runtime parameters applied: " << changes;
+    if (rebuilt)
+      message << " (engine rebuilt from its state: " << graph_.numNodes() << " nodes, " << graph_.numLoopClosures()
+              << " loop closures, " << static_cast<int>((now() - start) * 1e3 + 0.5) << " ms)";
+    ROS_INFO_STREAM("agnc_pgo: " << message.str());
+    if (paused_ != next.paused) {
+      paused_ = next.paused;
+      if (!paused_ && needs_update_) solve();
+    }
+    return {true, message.str()};
   });
 }
 

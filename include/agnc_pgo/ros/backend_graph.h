@@ -72,6 +72,14 @@ class BackendGraph {
   // order, within ~stamp_tolerance), or -1.
   int findLoopClosure(const ros::Time& from_stamp, const ros::Time& to_stamp) const;
   void reset();
+  // The runtime parameters of `next` (readRuntimeParameters) take effect.
+  // When a gnc option changed, the engine is rebuilt with the new options
+  // from its exact state (the ~load_graph path: estimate, every loop
+  // closure's graduation and override; loop closures still pending stay
+  // pending, overrides not yet solved stay to be solved) and returns true;
+  // the existing loop closures are reclassified at the current estimate.
+  // Throws std::invalid_argument, leaving the graph and parameters as they were.
+  bool setParameters(const BackendParameters& next);
 
   SavedGraph save() const;
   // Replaces the graph (throws, leaving it intact, if `saved` is inconsistent).
@@ -86,6 +94,10 @@ class BackendGraph {
   int heldLoopClosures() const { return static_cast<int>(held_.size()); }
   const core::IncrementalGnc* engine() const { return engine_.get(); }
   const std::vector<ros::Time>& stamps() const { return matcher_.stamps(); }
+  // Totals since the last reset (an engine rebuilt by setParameters or a
+  // roll-back carries them on).
+  long totalIterations() const { return carried_iterations_ + engine_->totalIterations(); }
+  long totalGncSteps() const { return carried_gnc_steps_ + engine_->totalGncSteps(); }
 
  private:
   struct LoopMeta {
@@ -108,6 +120,10 @@ class BackendGraph {
   bool guardedSolve(const std::string& what, const std::function<core::UpdateStats()>& solve,
                     core::UpdateStats* stats, std::string* error);
   std::unique_ptr<core::IncrementalGnc> build(const SavedGraph& saved) const;
+  // Replaces the engine by one rebuilt from this graph's state, carrying
+  // over what the state does not hold (totals, uncorroborated flags).
+  void adopt(std::unique_ptr<core::IncrementalGnc> engine);
+  void setEngineOverride(int index, core::LoopOverride mode);
 
   BackendParameters parameters_;
   Eigen::MatrixXd prior_information_;
@@ -137,6 +153,14 @@ class BackendGraph {
   void noteDecisions();
   long updates_ = 0;
   std::vector<Decision> decisions_;
+  // Loop closures whose override changed since the last update (the engine
+  // restarts them in the next one; a rebuild must ask again).
+  std::vector<int> restarted_;
+  // Carried over from engines replaced by adopt().
+  long carried_iterations_ = 0, carried_gnc_steps_ = 0;
+  // Per loop closure: judged uncorroborated by a replaced engine (restore()
+  // cannot set it); cleared once an update changes its graduation.
+  std::vector<bool> carried_uncorroborated_;
 };
 
 }  // namespace ros_backend

@@ -7,6 +7,9 @@
 #include <memory>
 #include <mutex>
 
+#include <boost/thread/recursive_mutex.hpp>
+#include <dynamic_reconfigure/server.h>
+
 #include <nav_msgs/Odometry.h>
 #include <nodelet/nodelet.h>
 #include <ros/ros.h>
@@ -14,6 +17,8 @@
 #include <std_srvs/Trigger.h>
 #include <tf2_ros/transform_broadcaster.h>
 
+#include "agnc_pgo/BackendConfig.h"
+#include "agnc_pgo/GncConfig.h"
 #include "agnc_pgo/Keyframe.h"
 #include "agnc_pgo/LoadGraph.h"
 #include "agnc_pgo/LoopClosure.h"
@@ -43,6 +48,12 @@ class BackendNodelet : public nodelet::Nodelet, public BackendOutput {
   void odometryCallback(const nav_msgs::Odometry::ConstPtr& message);
   void loopClosureCallback(const agnc_pgo::LoopClosure::ConstPtr& message);
   void tfTimerCallback(const ros::WallTimerEvent& event);
+  // dynamic_reconfigure (the node's callback queue): validates the request
+  // like the start-up parameters, refuses an invalid one (ROS_WARN naming the
+  // parameter; `config` is set back to the values in force), applies what
+  // the callbacks and the tf timer read and hands the rest to the worker.
+  template <class Config>
+  void reconfigure(Config& config, const std::string& ns);
 
   bool saveGraph(agnc_pgo::SaveGraph::Request& request, agnc_pgo::SaveGraph::Response& response);
   bool loadGraph(agnc_pgo::LoadGraph::Request& request, agnc_pgo::LoadGraph::Response& response);
@@ -54,7 +65,14 @@ class BackendNodelet : public nodelet::Nodelet, public BackendOutput {
   bool setLoopClosureStatus(agnc_pgo::SetLoopClosureStatus::Request& request,
                             agnc_pgo::SetLoopClosureStatus::Response& response);
 
-  BackendParameters parameters_;
+  BackendParameters parameters_;  // as at start-up; read by the worker thread's publishers
+  // The parameters in force (runtime ones as last reconfigured): read by the
+  // subscription callbacks and the tf timer, written by reconfigure() on the
+  // same callback queue and (paused) by ~pause under reconfigure_mutex_.
+  BackendParameters current_;
+  boost::recursive_mutex reconfigure_mutex_;  // also the reconfigure servers' mutex
+  std::unique_ptr<dynamic_reconfigure::Server<agnc_pgo::BackendConfig>> backend_server_;
+  std::unique_ptr<dynamic_reconfigure::Server<agnc_pgo::GncConfig>> gnc_server_;
   VisualizerStyle style_;
   std::unique_ptr<BackendWorker> worker_;
   ros::Subscriber odometry_subscriber_, loop_closure_subscriber_;

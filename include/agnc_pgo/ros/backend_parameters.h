@@ -1,11 +1,16 @@
 // Parameters of the ROS back-end: read once at start-up from the private
 // node handle into plain structs, validated, and logged (config/default.yaml
-// documents every one of them).
+// documents every one of them). The runtime ones (cfg/Backend.cfg on ~,
+// cfg/Gnc.cfg on ~gnc) change through dynamic_reconfigure, validated by the
+// same validate(). This file and backend_parameters.cpp are the only place
+// that maps ROS parameter names to these structs and to core::GncOptions.
 #pragma once
 
 #include <array>
 #include <string>
 #include <vector>
+
+#include <dynamic_reconfigure/Config.h>
 
 #include "agnc_pgo/core/gnc_options.h"
 
@@ -25,6 +30,11 @@ struct KeyframeParameters {
   double interval = 0.0;     // [s]   ... or this much time (0 = off); all off = every message
 };
 
+// Start-up only: dimension, frames, initial_graph, keyframes, the sigmas,
+// use_odometry_covariance, publish_pose_graph, the marker sizes and the
+// queues. Runtime (dynamic_reconfigure): paused, the rates, the tolerances
+// and plausibility bounds, optimize_iterations and every gnc option
+// (runtimeParameterNames()).
 struct BackendParameters {
   int dimension = 2;                       // 2 (SE(2): x y yaw) or 3 (SE(3))
   std::string initial_graph;               // saved graph (~save_graph) loaded at start-up; empty: none
@@ -52,6 +62,7 @@ struct BackendParameters {
   double marker_line_width = 0.05;         // [m]
   int queue_size = 1000;                   // subscriber queues
   int max_queue = 100000;                  // worker queue bound (excess messages are rejected)
+  bool paused = false;                     // start paused (as ~pause true)
 };
 
 // Throws std::invalid_argument naming the parameter and the accepted range.
@@ -65,6 +76,45 @@ BackendParameters readParameters(const ros::NodeHandle& private_nh, std::vector<
 
 // Multi-line human-readable dump for the start-up log.
 std::string describe(const BackendParameters& p);
+
+// ---------------------------------------------------------------- runtime (dynamic_reconfigure)
+// `ns` names a reconfigure server: "" for ~ (cfg/Backend.cfg), "gnc" for
+// ~gnc (cfg/Gnc.cfg). Its parameters are named as in the yaml, relative to
+// the server's namespace.
+extern const char* const kGncNamespace;  // "gnc"
+
+// The runtime parameters of the server `ns` ("tf_rate", ... / "schedule", ...).
+std::vector<std::string> runtimeParameterNames(const std::string& ns);
+
+// Sets every entry of `msg` (a Config message of server `ns`, e.g. from
+// BackendConfig::__toMessage__) to its value in `p`. Throws
+// std::logic_error for an entry that is no runtime parameter of `ns`.
+void writeRuntimeParameters(const BackendParameters& p, const std::string& ns, dynamic_reconfigure::Config* msg);
+
+// `current` with the entries of `msg` (server `ns`) applied, then validated
+// by validate(), exactly as at start-up. Throws std::invalid_argument naming
+// the parameter (an unknown enum value, a value out of range); `current` is
+// what stays in force then.
+BackendParameters readRuntimeParameters(const BackendParameters& current, const std::string& ns,
+                                        const dynamic_reconfigure::Config& msg);
+
+// The runtime parameters that differ, "~tf_rate 20 -> 5, ~gnc/schedule agnc
+// -> none" (empty: none). Only runtime parameters are compared.
+std::string describeChanges(const BackendParameters& before, const BackendParameters& after);
+// Whether any gnc option differs.
+bool gncOptionsDiffer(const BackendParameters& a, const BackendParameters& b);
+
+// A generated dynamic_reconfigure Config (agnc_pgo::BackendConfig for ns "",
+// agnc_pgo::GncConfig for "gnc") holding the runtime parameters of `p`.
+template <class Config>
+Config toConfig(const BackendParameters& p, const std::string& ns) {
+  Config config = Config::__getDefault__();
+  dynamic_reconfigure::Config msg;
+  config.__toMessage__(msg);
+  writeRuntimeParameters(p, ns, &msg);
+  config.__fromMessage__(msg);
+  return config;
+}
 
 }  // namespace ros_backend
 }  // namespace agnc_pgo

@@ -68,6 +68,10 @@ class BackendWorker {
   CommandResult optimize();
   CommandResult reset();
   CommandResult setPaused(bool paused);
+  // dynamic_reconfigure: `next` (validated; readRuntimeParameters) takes
+  // effect on the worker thread, in order with the messages before it, and
+  // is logged. Does not wait.
+  void reconfigure(const BackendParameters& next);
   CommandResult setLoopClosureStatus(int index, core::LoopOverride mode);
   // The same, addressed by the stamps of the loop closure's keyframes.
   CommandResult setLoopClosureStatus(const ros::Time& from_stamp, const ros::Time& to_stamp,
@@ -88,6 +92,8 @@ class BackendWorker {
   };
 
   CommandResult call(std::function<CommandResult()> command);
+  // Queues a command without waiting for it.
+  void post(std::function<CommandResult()> command);
   void push(Item item);
   void run();
   void processBatch(std::deque<Item>* batch);
@@ -101,7 +107,8 @@ class BackendWorker {
   void warn(const std::string& message);
   CommandResult applyOverride(int index, core::LoopOverride mode);
 
-  BackendParameters parameters_;
+  BackendParameters parameters_;  // worker thread only (runtime ones change by reconfigure())
+  const int max_queue_;           // read by push() on the callbacks' threads
   BackendOutput* output_;
   BackendGraph graph_;  // worker thread only
 

@@ -21,6 +21,8 @@ class LoopClosureMatcher {
   // Keyframe stamps must strictly increase; returns the new keyframe's id.
   int add(const ros::Time& stamp);
   void clear() { stamps_.clear(); }
+  // For later matches (dynamic_reconfigure ~stamp_tolerance).
+  void setTolerance(double tolerance) { tolerance_ = tolerance; }
   // kFound: nearest keyframe within the tolerance. kNotYet: newer than the
   // latest keyframe by more than the tolerance (it may still arrive).
   // kUnknown: within the keyframes' span but matches none (or no keyframe
