@@ -50,19 +50,19 @@ std::string toString(ResetPolicy policy) {
 }
 
 void validate(const GncOptions& o) {
-  if (!(o.shape_c > 0.0)) throw std::invalid_argument("shape_c must be > 0");
-  if (!(o.fixed_alpha >= 0.0 && o.fixed_alpha <= 1.0))
+  if (!(o.schedule.shape_c > 0.0)) throw std::invalid_argument("shape_c must be > 0");
+  if (!(o.schedule.fixed_alpha >= 0.0 && o.schedule.fixed_alpha <= 1.0))
     throw std::invalid_argument("fixed_alpha must be in [0, 1]");
-  if (o.max_settle_iterations < 0) throw std::invalid_argument("max_settle_iterations must be >= 0");
-  if (!(o.convergence_step > 0.0)) throw std::invalid_argument("convergence_step must be > 0");
-  if (o.max_window_poses < 0) throw std::invalid_argument("max_window_poses must be >= 0 (0: no bound)");
-  if (!(o.dormant_weight >= 0.0 && o.dormant_weight < 1.0))
+  if (o.solver.max_settle_iterations < 0) throw std::invalid_argument("max_settle_iterations must be >= 0");
+  if (!(o.solver.convergence_step > 0.0)) throw std::invalid_argument("convergence_step must be > 0");
+  if (o.window.max_poses < 0) throw std::invalid_argument("max_window_poses must be >= 0 (0: no bound)");
+  if (!(o.rejection.dormant_weight >= 0.0 && o.rejection.dormant_weight < 1.0))
     throw std::invalid_argument("dormant_weight must be in [0, 1)");
-  if (o.support_radius < 0) throw std::invalid_argument("support_radius must be >= 0 (0: off)");
-  if (o.max_gnc_steps < 6) throw std::invalid_argument("max_gnc_steps must be >= 6");
-  if (o.max_iterations_per_step < 1) throw std::invalid_argument("max_iterations_per_step must be >= 1");
-  if (!(o.trust_region_radius > 0.0)) throw std::invalid_argument("trust_region_radius must be > 0");
-  if (!(o.max_trust_region_radius >= o.trust_region_radius))
+  if (o.rejection.support_radius < 0) throw std::invalid_argument("support_radius must be >= 0 (0: off)");
+  if (o.schedule.max_gnc_steps < 6) throw std::invalid_argument("max_gnc_steps must be >= 6");
+  if (o.solver.max_iterations_per_step < 1) throw std::invalid_argument("max_iterations_per_step must be >= 1");
+  if (!(o.solver.trust_region_radius > 0.0)) throw std::invalid_argument("trust_region_radius must be > 0");
+  if (!(o.solver.max_trust_region_radius >= o.solver.trust_region_radius))
     throw std::invalid_argument("max_trust_region_radius must be >= trust_region_radius");
 }
 

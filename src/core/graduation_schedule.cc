@@ -7,7 +7,7 @@
 namespace agnc_pgo {
 namespace core {
 
-GraduationSchedule::GraduationSchedule(const GncOptions& options, int dof)
+GraduationSchedule::GraduationSchedule(const GncOptions::Schedule& options, int dof)
     : options_(options), dof_(dof), thresholds_(ChiSquareThresholds::forDof(dof)) {}
 
 double GraduationSchedule::nextRisamMu(double mu) { return std::min(1.0, 2.2 * mu + 0.12); }
@@ -17,11 +17,11 @@ double GraduationSchedule::distanceOf(double r) const {
 }
 
 void GraduationSchedule::start(GraduationState* s) const {
-  s->step = (options_.schedule == ScheduleKind::kRisam) ? 0 : s->init_step;
+  s->step = (options_.kind == ScheduleKind::kRisam) ? 0 : s->init_step;
   s->steps_at_one = 0;
-  s->graduating = options_.schedule != ScheduleKind::kNone;
+  s->graduating = options_.kind != ScheduleKind::kNone;
   s->mu = 0.0;
-  if (options_.schedule == ScheduleKind::kRisam) s->mu = s->mu_init;
+  if (options_.kind == ScheduleKind::kRisam) s->mu = s->mu_init;
 }
 
 double GraduationSchedule::adaptiveAlpha(double m) const {
@@ -40,7 +40,7 @@ double GraduationSchedule::referenceAlpha(double m) const {
 }
 
 void GraduationSchedule::advance(GraduationState* s, double distance) const {
-  switch (options_.schedule) {
+  switch (options_.kind) {
     case ScheduleKind::kNone:
       s->mu = 0.0;
       break;
@@ -63,7 +63,7 @@ void GraduationSchedule::advance(GraduationState* s, double distance) const {
 
 void GraduationSchedule::finishStep(GraduationState* s) const {
   if (s->mu >= 1.0) ++s->steps_at_one;
-  if (s->steps_at_one >= 2 || options_.schedule == ScheduleKind::kNone) s->graduating = false;
+  if (s->steps_at_one >= 2 || options_.kind == ScheduleKind::kNone) s->graduating = false;
 }
 
 void GraduationSchedule::startAtOne(GraduationState* s) const {
@@ -73,11 +73,11 @@ void GraduationSchedule::startAtOne(GraduationState* s) const {
 
 void GraduationSchedule::adaptInitial(GraduationState* s, double m) const {
   if (!options_.adapt_initial_mu) return;
-  if (options_.schedule == ScheduleKind::kRisam) {
+  if (options_.kind == ScheduleKind::kRisam) {
     if (m > thresholds_.q90) s->mu_init = nextRisamMu(s->mu_init);
     else if (m < thresholds_.q25) s->mu_init = std::max(0.0, s->mu_init - 0.1);
-  } else if (options_.schedule == ScheduleKind::kAgnc ||
-             options_.schedule == ScheduleKind::kAgncFixed) {
+  } else if (options_.kind == ScheduleKind::kAgnc ||
+             options_.kind == ScheduleKind::kAgncFixed) {
     if (m > thresholds_.q90) s->init_step = ShapeFunction::kStepsToOne;
     else if (m < thresholds_.q25) s->init_step = 0;
   }

@@ -44,11 +44,11 @@ int newerEnd(const Edge& e) { return std::max(e.from, e.to); }
 IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
     : dimension_(dimension),
       options_(options),
-      schedule_(options, dimension == 2 ? 3 : 6),
-      solver_(dimension, options.shape_c) {
+      schedule_(options.schedule, dimension == 2 ? 3 : 6),
+      solver_(dimension, options.schedule.shape_c) {
   validate(options_);
-  solver_.setTrustRegion(options_.trust_region, options_.trust_region_radius,
-                         options_.max_trust_region_radius);
+  solver_.setTrustRegion(options_.solver.trust_region, options_.solver.trust_region_radius,
+                         options_.solver.max_trust_region_radius);
 }
 
 void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& information) {
@@ -108,7 +108,7 @@ int IncrementalGnc::addLoopClosure(const Edge& edge) {
 }
 
 FactorMode IncrementalGnc::robustMode() const {
-  return options_.schedule == ScheduleKind::kNone ? FactorMode::kPlain : FactorMode::kRobust;
+  return options_.schedule.kind == ScheduleKind::kNone ? FactorMode::kPlain : FactorMode::kRobust;
 }
 
 Poses IncrementalGnc::poses() const {
@@ -133,9 +133,9 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
       break;
   }
   const bool rejected_at_one = loop->override_mode == LoopOverride::kAuto &&
-                               options_.schedule != ScheduleKind::kNone && !loop->graduation.graduating &&
+                               options_.schedule.kind != ScheduleKind::kNone && !loop->graduation.graduating &&
                                loop->graduation.mu >= 1.0;
-  setDormant(loop, rejected_at_one && loop->weight < options_.dormant_weight);
+  setDormant(loop, rejected_at_one && loop->weight < options_.rejection.dormant_weight);
 }
 
 void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
@@ -148,10 +148,10 @@ bool IncrementalGnc::staysDormant(const LoopClosure& loop) const {
   // A restart that begins at mu = 1 would graduate it at the weight it has
   // now; if that is still negligible, graduating it changes nothing.
   const GraduationState& g = loop.graduation;
-  const bool restarts_at_one = options_.schedule == ScheduleKind::kRisam
+  const bool restarts_at_one = options_.schedule.kind == ScheduleKind::kRisam
                                    ? g.mu_init >= 1.0
                                    : g.init_step >= ShapeFunction::kStepsToOne;
-  return restarts_at_one && solver_.weight(loop.factor) < options_.dormant_weight;
+  return restarts_at_one && solver_.weight(loop.factor) < options_.rejection.dormant_weight;
 }
 
 void IncrementalGnc::classifyAll() {
@@ -189,7 +189,7 @@ UpdateStats IncrementalGnc::update() {
   UpdateStats stats;
   if (pending_.empty() && needs_restart_.empty()) return stats;
   // Every update starts with a small trust region that grows only while the
-  // steps agree with the model (see GncOptions::trust_region_radius).
+  // steps agree with the model (see GncOptions::InnerSolver::trust_region_radius).
   solver_.resetTrustRegion();
   UpdatePlan plan = judgeArrivals();
   planWindow(&plan);
@@ -215,7 +215,7 @@ IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals() {
   std::vector<int> far;
   for (int index : pending_) {
     LoopClosure& loop = loops_[index];
-    if (loop.override_mode != LoopOverride::kAuto || options_.schedule == ScheduleKind::kNone) {
+    if (loop.override_mode != LoopOverride::kAuto || options_.schedule.kind == ScheduleKind::kNone) {
       plan.to_graduate.push_back(index);
       continue;
     }
@@ -317,7 +317,7 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
   // produces a run of such loop closures, an outlier rarely has a
   // consistent neighbour.
   std::vector<int> partners;
-  const int radius = options_.support_radius;
+  const int radius = options_.rejection.support_radius;
   if (radius == 0) return partners;
   const Edge& e = loops_[index].edge;
   const auto pose = [this](int id) { return solver_.pose(id); };
@@ -346,8 +346,8 @@ void IncrementalGnc::planWindow(UpdatePlan* plan) const {
   plan->first = numPoses();
   auto reach = [&](const Edge& e, bool whole_cycle) {
     plan->oldest = std::min(plan->oldest, olderEnd(e));
-    const bool bounded = options_.max_window_poses > 0 && !whole_cycle;
-    plan->first = std::min(plan->first, bounded ? std::max(olderEnd(e), newerEnd(e) + 1 - options_.max_window_poses)
+    const bool bounded = options_.window.max_poses > 0 && !whole_cycle;
+    plan->first = std::min(plan->first, bounded ? std::max(olderEnd(e), newerEnd(e) + 1 - options_.window.max_poses)
                                                 : olderEnd(e));
   };
   for (int index : plan->to_graduate)
@@ -355,7 +355,7 @@ void IncrementalGnc::planWindow(UpdatePlan* plan) const {
           std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end());
   for (int index : plan->accepted) reach(loops_[index].edge, false);
   for (int index : needs_restart_) reach(loops_[index].edge, false);
-  if (!options_.local_window) plan->first = 0;
+  if (!options_.window.local) plan->first = 0;
   plan->moves = !plan->to_graduate.empty() || !needs_restart_.empty() || !plan->accepted.empty();
 }
 
@@ -378,12 +378,12 @@ void IncrementalGnc::selectGraduating(UpdatePlan* plan) {
   for (int index : needs_restart_) select(index);
   // Older decisions are revisited only where the estimate may move much: if
   // every new loop closure already agreed with it, they stand.
-  const bool reset = options_.reset != ResetPolicy::kNone && (!plan->to_graduate.empty() || !needs_restart_.empty());
+  const bool reset = options_.schedule.reset != ResetPolicy::kNone && (!plan->to_graduate.empty() || !needs_restart_.empty());
   // A loop closure with both ends held fixed cannot move in this update.
   const int reach = std::max(plan->oldest, plan->first);
   if (reset)
     for (int index = 0; index < static_cast<int>(loops_.size()); ++index)
-      if (options_.reset == ResetPolicy::kAll || newerEnd(loops_[index].edge) >= reach) select(index);
+      if (options_.schedule.reset == ResetPolicy::kAll || newerEnd(loops_[index].edge) >= reach) select(index);
   plan->graduated = plan->graduating;
 }
 
@@ -396,7 +396,7 @@ Poses IncrementalGnc::windowPoses(const UpdatePlan& plan) const {
 }
 
 bool IncrementalGnc::mayRefine(const UpdatePlan& plan) const {
-  return plan.first > 0 && options_.global_refinement;
+  return plan.first > 0 && options_.window.global_refinement;
 }
 
 void IncrementalGnc::runGncSteps(UpdatePlan* plan, UpdateStats* stats) {
@@ -404,21 +404,21 @@ void IncrementalGnc::runGncSteps(UpdatePlan* plan, UpdateStats* stats) {
   // then iterates while the steps are large: a large correction must land
   // before the next, less convex, step judges it.
   std::vector<int>& graduating = plan->graduating;
-  while (!graduating.empty() && stats->gnc_steps < options_.max_gnc_steps) {
+  while (!graduating.empty() && stats->gnc_steps < options_.schedule.max_gnc_steps) {
     for (int index : graduating) {
       LoopClosure& loop = loops_[index];
       schedule_.advance(&loop.graduation, distance(loop));
       solver_.setMu(loop.factor, loop.graduation.mu);
     }
     IterationResult r = iterateOnce(plan->first, stats);
-    for (int extra = 1; extra < options_.max_iterations_per_step && r.accepted &&
-                        convergenceStep(r) >= options_.convergence_step;
+    for (int extra = 1; extra < options_.solver.max_iterations_per_step && r.accepted &&
+                        convergenceStep(r) >= options_.solver.convergence_step;
          ++extra)
       r = iterateOnce(plan->first, stats);
     ++stats->gnc_steps;
     if (r.accepted) plan->last_step = convergenceStep(r);
     for (int index : graduating) schedule_.finishStep(&loops_[index].graduation);
-    if (r.accepted && convergenceStep(r) < options_.convergence_step) acceptConsistent(graduating);
+    if (r.accepted && convergenceStep(r) < options_.solver.convergence_step) acceptConsistent(graduating);
     graduating.erase(std::remove_if(graduating.begin(), graduating.end(),
                                     [this](int i) { return !loops_[i].graduation.graduating; }),
                      graduating.end());
@@ -436,9 +436,9 @@ void IncrementalGnc::acceptConsistent(const std::vector<int>& graduating) {
 }
 
 int IncrementalGnc::maxSettleIterations() const {
-  return options_.schedule == ScheduleKind::kNone
-             ? std::max(options_.max_settle_iterations, kMinPlainIterations)
-             : options_.max_settle_iterations;
+  return options_.schedule.kind == ScheduleKind::kNone
+             ? std::max(options_.solver.max_settle_iterations, kMinPlainIterations)
+             : options_.solver.max_settle_iterations;
 }
 
 void IncrementalGnc::refine(const UpdatePlan& plan, const Poses& window_before, UpdateStats* stats) {
@@ -455,7 +455,7 @@ void IncrementalGnc::refine(const UpdatePlan& plan, const Poses& window_before, 
   if (!mayRefine(plan)) return;
   for (int i = plan.first; i < numPoses(); ++i)
     unrefined_step_ += displacement(window_before[i - plan.first], solver_.pose(i));
-  if (unrefined_step_ / numPoses() < options_.convergence_step) return;
+  if (unrefined_step_ / numPoses() < options_.solver.convergence_step) return;
   const int before = stats->iterations;
   settle(0, maxSettleIterations(), std::numeric_limits<double>::infinity(), stats);
   stats->refinement_iterations = stats->iterations - before;
@@ -487,13 +487,13 @@ IterationResult IncrementalGnc::iterateOnce(int first, UpdateStats* stats) {
 
 void IncrementalGnc::settle(int first, int max_iterations, double last_step, UpdateStats* stats) {
   int done = 0;
-  while (done < max_iterations && last_step >= options_.convergence_step) {
+  while (done < max_iterations && last_step >= options_.solver.convergence_step) {
     const IterationResult r = iterateOnce(first, stats);
     ++done;
     if (!r.accepted) break;  // nothing reduces the cost: converged as far as we can go
     last_step = convergenceStep(r);
   }
-  stats->converged = last_step < options_.convergence_step;
+  stats->converged = last_step < options_.solver.convergence_step;
 }
 
 UpdateStats IncrementalGnc::optimize(int max_iterations) {

@@ -111,25 +111,25 @@ void forEachBackendRuntimeParameter(P& p, F&& f) {
 // ~gnc/NAME (cfg/Gnc.cfg): the core engine's options.
 template <class O, class F>
 void forEachGncOption(O& o, F&& f) {
-  f("schedule", o.schedule);
-  f("distance", o.distance);
-  f("reset", o.reset);
-  f("shape_c", o.shape_c);
-  f("fixed_alpha", o.fixed_alpha);
-  f("reference_alpha_direction", o.reference_alpha_direction);
-  f("max_settle_iterations", o.max_settle_iterations);
-  f("convergence_step", o.convergence_step);
-  f("adapt_initial_mu", o.adapt_initial_mu);
-  f("local_window", o.local_window);
-  f("max_window_poses", o.max_window_poses);
-  f("global_refinement", o.global_refinement);
-  f("max_iterations_per_step", o.max_iterations_per_step);
-  f("trust_region", o.trust_region);
-  f("trust_region_radius", o.trust_region_radius);
-  f("max_trust_region_radius", o.max_trust_region_radius);
-  f("dormant_weight", o.dormant_weight);
-  f("support_radius", o.support_radius);
-  f("max_gnc_steps", o.max_gnc_steps);
+  f("schedule", o.schedule.kind);
+  f("distance", o.schedule.distance);
+  f("reset", o.schedule.reset);
+  f("shape_c", o.schedule.shape_c);
+  f("fixed_alpha", o.schedule.fixed_alpha);
+  f("reference_alpha_direction", o.schedule.reference_alpha_direction);
+  f("max_settle_iterations", o.solver.max_settle_iterations);
+  f("convergence_step", o.solver.convergence_step);
+  f("adapt_initial_mu", o.schedule.adapt_initial_mu);
+  f("local_window", o.window.local);
+  f("max_window_poses", o.window.max_poses);
+  f("global_refinement", o.window.global_refinement);
+  f("max_iterations_per_step", o.solver.max_iterations_per_step);
+  f("trust_region", o.solver.trust_region);
+  f("trust_region_radius", o.solver.trust_region_radius);
+  f("max_trust_region_radius", o.solver.max_trust_region_radius);
+  f("dormant_weight", o.rejection.dormant_weight);
+  f("support_radius", o.rejection.support_radius);
+  f("max_gnc_steps", o.schedule.max_gnc_steps);
 }
 
 template <class P, class F>

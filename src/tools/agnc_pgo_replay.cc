@@ -87,23 +87,23 @@ Arguments parseArguments(int argc, char** argv) {
     if (flag == "--input") a.input = value();
     else if (flag == "--outliers") a.outliers = parsePercent(flag, value());
     else if (flag == "--seed") a.seed = static_cast<unsigned long>(parseCount(flag, value(), ULONG_MAX));
-    else if (flag == "--schedule") a.gnc.schedule = parseSchedule(value());
+    else if (flag == "--schedule") a.gnc.schedule.kind = parseSchedule(value());
     else if (flag == "--ground-truth") a.ground_truth = value();
     else if (flag == "--output") a.output = value();
     else if (flag == "--quiet") a.quiet = true;
-    else if (flag == "--distance") a.gnc.distance = parseDistanceConvention(value());
-    else if (flag == "--reset") a.gnc.reset = parseResetPolicy(value());
-    else if (flag == "--full-window") a.gnc.local_window = false;
-    else if (flag == "--max-window") a.gnc.max_window_poses = parseInt(flag, value());
-    else if (flag == "--settle") a.gnc.max_settle_iterations = parseInt(flag, value());
-    else if (flag == "--no-global-refinement") a.gnc.global_refinement = false;
-    else if (flag == "--no-trust-region") a.gnc.trust_region = false;
-    else if (flag == "--trust-region-radius") a.gnc.trust_region_radius = parseNumber(flag, value());
-    else if (flag == "--max-trust-region-radius") a.gnc.max_trust_region_radius = parseNumber(flag, value());
-    else if (flag == "--iterations-per-step") a.gnc.max_iterations_per_step = parseInt(flag, value());
-    else if (flag == "--reference-alpha") a.gnc.reference_alpha_direction = true;
-    else if (flag == "--support-radius") a.gnc.support_radius = parseInt(flag, value());
-    else if (flag == "--dormant-weight") a.gnc.dormant_weight = parseNumber(flag, value());
+    else if (flag == "--distance") a.gnc.schedule.distance = parseDistanceConvention(value());
+    else if (flag == "--reset") a.gnc.schedule.reset = parseResetPolicy(value());
+    else if (flag == "--full-window") a.gnc.window.local = false;
+    else if (flag == "--max-window") a.gnc.window.max_poses = parseInt(flag, value());
+    else if (flag == "--settle") a.gnc.solver.max_settle_iterations = parseInt(flag, value());
+    else if (flag == "--no-global-refinement") a.gnc.window.global_refinement = false;
+    else if (flag == "--no-trust-region") a.gnc.solver.trust_region = false;
+    else if (flag == "--trust-region-radius") a.gnc.solver.trust_region_radius = parseNumber(flag, value());
+    else if (flag == "--max-trust-region-radius") a.gnc.solver.max_trust_region_radius = parseNumber(flag, value());
+    else if (flag == "--iterations-per-step") a.gnc.solver.max_iterations_per_step = parseInt(flag, value());
+    else if (flag == "--reference-alpha") a.gnc.schedule.reference_alpha_direction = true;
+    else if (flag == "--support-radius") a.gnc.rejection.support_radius = parseInt(flag, value());
+    else if (flag == "--dormant-weight") a.gnc.rejection.dormant_weight = parseNumber(flag, value());
     else if (flag == "--help" || flag == "-h") {
       std::cout << kUsage;
       std::exit(0);
@@ -221,11 +221,11 @@ int main(int argc, char** argv) {
          << "  \"outliers\": " << log.numOutliers() << ",\n"
          << "  \"outlier_percent\": " << jsonNumber(args.outliers < 0 ? NAN : args.outliers) << ",\n"
          << "  \"seed\": " << args.seed << ",\n"
-         << "  \"schedule\": \"" << toString(args.gnc.schedule) << "\",\n"
-         << "  \"distance\": \"" << toString(args.gnc.distance) << "\",\n"
-         << "  \"reset\": \"" << toString(args.gnc.reset) << "\",\n"
-         << "  \"local_window\": " << (args.gnc.local_window ? "true" : "false") << ",\n"
-         << "  \"max_window_poses\": " << args.gnc.max_window_poses << ",\n"
+         << "  \"schedule\": \"" << toString(args.gnc.schedule.kind) << "\",\n"
+         << "  \"distance\": \"" << toString(args.gnc.schedule.distance) << "\",\n"
+         << "  \"reset\": \"" << toString(args.gnc.schedule.reset) << "\",\n"
+         << "  \"local_window\": " << (args.gnc.window.local ? "true" : "false") << ",\n"
+         << "  \"max_window_poses\": " << args.gnc.window.max_poses << ",\n"
          << "  \"runtime_s\": " << jsonNumber(result.runtime_s) << ",\n"
          << "  \"solves\": " << result.solves << ",\n"
          << "  \"gnc_steps\": " << result.gnc_steps << ",\n"
@@ -277,7 +277,7 @@ int main(int argc, char** argv) {
     if (!args.quiet) {
       std::printf("%-28s %s (%dD), %d poses, %d loop closures (%d outliers)\n", "input:", log.name.c_str(),
                   log.dimension, log.numPoses(), log.numLoopClosures(), log.numOutliers());
-      std::printf("%-28s %s\n", "schedule:", toString(args.gnc.schedule).c_str());
+      std::printf("%-28s %s\n", "schedule:", toString(args.gnc.schedule.kind).c_str());
       std::printf("%-28s %.3f s (%ld solves, %ld GNC steps, %.0f free poses per solve)\n", "runtime:",
                   result.runtime_s, result.solves, result.gnc_steps, result.mean_free_poses);
       std::printf("%-28s %.2f / %.2f / %.2f ms\n", "loop update p50/p95/max:", p50, p95, pmax);

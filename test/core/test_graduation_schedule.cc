@@ -9,9 +9,9 @@ using namespace agnc_pgo::core;
 
 namespace {
 
-GncOptions withSchedule(ScheduleKind kind) {
-  GncOptions o;
-  o.schedule = kind;
+GncOptions::Schedule withSchedule(ScheduleKind kind) {
+  GncOptions::Schedule o;
+  o.kind = kind;
   return o;
 }
 
@@ -67,7 +67,7 @@ TEST(GraduationSchedule, AdaptiveAlphaFollowsThePaper) {
 }
 
 TEST(GraduationSchedule, ReferenceAlphaJumpsAtBothBandEdges) {
-  GncOptions o = withSchedule(ScheduleKind::kAgnc);
+  GncOptions::Schedule o = withSchedule(ScheduleKind::kAgnc);
   o.reference_alpha_direction = true;
   GraduationSchedule s(o, 3);
   const ChiSquareThresholds& t = s.thresholds();
@@ -106,7 +106,7 @@ TEST(GraduationSchedule, RisamAdaptationMovesMuInit) {
 }
 
 TEST(GraduationSchedule, DistanceConventions) {
-  GncOptions o;
+  GncOptions::Schedule o;
   o.distance = DistanceConvention::kReference;
   EXPECT_EQ(GraduationSchedule(o, 3).distanceOf(3.0), 3.0);
   o.distance = DistanceConvention::kSquared;
@@ -129,6 +129,10 @@ TEST(GncOptions, ParsingAndValidation) {
   EXPECT_EQ(parseResetPolicy("all"), ResetPolicy::kAll);
   EXPECT_EQ(toString(parseDistanceConvention("squared")), "squared");
   GncOptions o;
-  o.fixed_alpha = 1.5;
+  o.schedule.fixed_alpha = 1.5;
   EXPECT_THROW(validate(o), std::invalid_argument);
+  // A relation between two fields: the trust region may not start above its cap.
+  GncOptions radii;
+  radii.solver.max_trust_region_radius = 0.5 * radii.solver.trust_region_radius;
+  EXPECT_THROW(validate(radii), std::invalid_argument);
 }

@@ -91,7 +91,7 @@ TEST(IncrementalGnc, NewLoopClosureCostsFiveGncStepsWithAgncAndSixWithRisam) {
   for (const auto& [kind, steps] : {std::pair<ScheduleKind, int>{ScheduleKind::kAgncFixed, 5},
                                     std::pair<ScheduleKind, int>{ScheduleKind::kRisam, 6}}) {
     GncOptions options;
-    options.schedule = kind;
+    options.schedule.kind = kind;
     auto owned = stiffSquareEngine(options);
     IncrementalGnc& engine = *owned;
     engine.addLoopClosure(edge(4, 0, Pose::fromSE2(0.3, 0, 0)));  // r = 3
@@ -154,8 +154,8 @@ std::unique_ptr<IncrementalGnc> corridorEngine(const GncOptions& options) {
 
 TEST(IncrementalGnc, WindowReachesAtMostMaxWindowPosesBackFromTheNewerEndpoint) {
   GncOptions options;
-  options.max_window_poses = 10;
-  options.global_refinement = false;  // to see what the window alone moved
+  options.window.max_poses = 10;
+  options.window.global_refinement = false;  // to see what the window alone moved
   auto owned = corridorEngine(options);
   IncrementalGnc& engine = *owned;
   const Poses before = engine.poses();
@@ -175,7 +175,7 @@ TEST(IncrementalGnc, WindowReachesAtMostMaxWindowPosesBackFromTheNewerEndpoint) 
 
 TEST(IncrementalGnc, UnboundedWindowStartsAtTheOlderEndpoint) {
   GncOptions options;
-  options.max_window_poses = 0;
+  options.window.max_poses = 0;
   auto owned = corridorEngine(options);
   owned->addLoopClosure(edge(2, 49, Pose::fromSE2(46.7, 0, 0)));
   EXPECT_EQ(owned->update().first_variable, 2);
@@ -320,7 +320,7 @@ TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
   const IncrementalLog log = logFromGraph(graph, "m1200");
   ReplayOptions options;
   const ReplayResult result = replay(log, options);
-  options.gnc.dormant_weight = 1e-8;
+  options.gnc.rejection.dormant_weight = 1e-8;
   const ReplayResult pulled = replay(log, options);
   EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
   EXPECT_DOUBLE_EQ(pulled.counts.precision(), 1.0);

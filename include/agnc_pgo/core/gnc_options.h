@@ -1,5 +1,6 @@
-// Options of the incremental GNC engine: a plain struct, built and validated
-// outside the algorithm (command line, ROS parameters, tests).
+// Options of the incremental GNC engine: a plain struct, grouped by concern,
+// built and validated outside the algorithm (command line, ROS parameters,
+// tests).
 #pragma once
 
 #include <string>
@@ -31,62 +32,84 @@ enum class ResetPolicy {
 };
 
 struct GncOptions {
-  ScheduleKind schedule = ScheduleKind::kAgnc;
-  DistanceConvention distance = DistanceConvention::kReference;
-  ResetPolicy reset = ResetPolicy::kWindow;
-  double shape_c = 3.0;        // SIG kernel shape (inliers within ~c sigma)
-  double fixed_alpha = 0.5;    // kAgncFixed
-  // kAgnc: interpolate as the AGNC reference code does ((cdf(m) - 0.25) / 0.65,
-  // with alpha = 0 meaning the rapid curve inside the band) instead of the paper.
-  bool reference_alpha_direction = false;
-  // After graduation, Gauss-Newton iterations continue until the mean tangent
-  // step per pose falls below `convergence_step` or `max_settle_iterations`.
-  int max_settle_iterations = 3;
-  double convergence_step = 0.01;
-  // mu_init / init_step adaptation of the loop closures that graduated.
-  bool adapt_initial_mu = true;
-  // Free only the poses from the oldest endpoint of the new loop closures on
-  // (older poses held fixed) instead of the whole graph.
-  bool local_window = true;
-  // With local_window: free at most the newest max_window_poses poses (0: no
-  // bound). A loop closure to a pose older than that corrects the recent
-  // trajectory against the old map, held fixed; the whole-graph refinement
-  // below then spreads the correction. Bounds the cost of an update however
-  // far back a loop closure reaches.
-  int max_window_poses = 200;
-  // With local_window: after an update that moved the estimate, iterate on
-  // the whole graph until it settles too.
-  bool global_refinement = true;
-  // Gauss-Newton iterations per GNC step at most: a step iterates while its
-  // mean step per pose is at least convergence_step, so a large correction
-  // lands before the next, less convex, step judges it, while a step that
-  // changes little costs one iteration (riSAM: one iSAM2 update per step).
-  int max_iterations_per_step = 10;
-  // Powell dogleg trust region for every iteration (riSAM runs iSAM2 with
-  // Dogleg), restarted at trust_region_radius by every update and growing
-  // with each step the quadratic model predicts well, never past
-  // max_trust_region_radius (tangent-space norm of the whole step).
-  bool trust_region = true;
-  double trust_region_radius = 1.0;
-  double max_trust_region_radius = 1e3;
-  // A rejected loop closure whose kernel weight at mu = 1 is below this
-  // leaves the cost and the linear system until a reset would give it weight
-  // again (0: never). Keeping random false loop closures costs fill-in (on
-  // M3500 they made full solves ~6x slower) and accuracy: their Geman-McClure
-  // tails pull the map (M3500 at 50 %: ATE 0.934 m kept down to 1e-8, 0.810 m
-  // from 1e-6, against 0.795 m without outliers).
-  double dormant_weight = 1e-6;
-  // A new loop closure that is a confident outlier by its own covariance
-  // (beyond q(0.9)) is landed -- its whole cycle freed -- when a rejected
-  // loop closure whose endpoints both lie within this many poses of its own
-  // passes the pairwise consistency test with it (loop_consistency.h, at
-  // q(0.95)): a place seen again after a long drift yields a run of such
-  // loop closures. Otherwise it is landed if the map explains it better
-  // than chance (loop_prediction.h), and rejected without a solve if not.
-  // 0: corroboration never lands one.
-  int support_radius = 5;
-  // Safety bound on GNC steps per update (a loop closure needs at most 6).
-  int max_gnc_steps = 30;
+  // The SIG kernel and how its mu rises, step by step (graduation_schedule.h).
+  struct Schedule {
+    ScheduleKind kind = ScheduleKind::kAgnc;
+    DistanceConvention distance = DistanceConvention::kReference;
+    ResetPolicy reset = ResetPolicy::kWindow;
+    double shape_c = 3.0;        // SIG kernel shape (inliers within ~c sigma)
+    double fixed_alpha = 0.5;    // kAgncFixed
+    // kAgnc: interpolate as the AGNC reference code does ((cdf(m) - 0.25) / 0.65,
+    // with alpha = 0 meaning the rapid curve inside the band) instead of the paper.
+    bool reference_alpha_direction = false;
+    // mu_init / init_step adaptation of the loop closures that graduated.
+    bool adapt_initial_mu = true;
+    // Safety bound on GNC steps per update (a loop closure needs at most 6).
+    int max_gnc_steps = 30;
+  };
+
+  // The inner solver: the Gauss-Newton / dogleg iterations of each GNC step
+  // (sparse_pose_graph_solver.h).
+  struct InnerSolver {
+    // Iterations per GNC step at most: a step iterates while its mean step
+    // per pose is at least convergence_step, so a large correction lands
+    // before the next, less convex, step judges it, while a step that
+    // changes little costs one iteration (riSAM: one iSAM2 update per step).
+    int max_iterations_per_step = 10;
+    // After graduation, iterations continue until the mean tangent step per
+    // pose falls below `convergence_step` or `max_settle_iterations`.
+    int max_settle_iterations = 3;
+    double convergence_step = 0.01;
+    // Powell dogleg trust region for every iteration (riSAM runs iSAM2 with
+    // Dogleg), restarted at trust_region_radius by every update and growing
+    // with each step the quadratic model predicts well, never past
+    // max_trust_region_radius (tangent-space norm of the whole step).
+    bool trust_region = true;
+    double trust_region_radius = 1.0;
+    double max_trust_region_radius = 1e3;
+  };
+
+  // Which poses are free in an update.
+  struct Window {
+    // Free only the poses from the oldest endpoint of the new loop closures
+    // on (older poses held fixed) instead of the whole graph.
+    bool local = true;
+    // With local: free at most the newest max_poses poses (0: no bound). A
+    // loop closure to a pose older than that corrects the recent trajectory
+    // against the old map, held fixed; the whole-graph refinement below then
+    // spreads the correction. Bounds the cost of an update however far back
+    // a loop closure reaches (a far loop closure that lands frees its whole
+    // cycle, see Rejection::support_radius).
+    int max_poses = 200;
+    // With local: after an update that moved the estimate, iterate on the
+    // whole graph until it settles too.
+    bool global_refinement = true;
+  };
+
+  // Loop closures rejected on arrival or by graduation.
+  struct Rejection {
+    // A rejected loop closure whose kernel weight at mu = 1 is below this
+    // leaves the cost and the linear system until a reset would give it
+    // weight again (0: never). Keeping random false loop closures costs
+    // fill-in (on M3500 they made full solves ~6x slower) and accuracy:
+    // their Geman-McClure tails pull the map (M3500 at 50 %: ATE 0.934 m
+    // kept down to 1e-8, 0.810 m from 1e-6, against 0.795 m without outliers).
+    double dormant_weight = 1e-6;
+    // A new loop closure that is a confident outlier by its own covariance
+    // (beyond q(0.9)) is landed -- its whole cycle freed -- when a rejected
+    // loop closure whose endpoints both lie within this many poses of its own
+    // passes the pairwise consistency test with it (loop_consistency.h, at
+    // q(0.95)): a place seen again after a long drift yields a run of such
+    // loop closures. Otherwise it is landed if the map explains it better
+    // than chance (loop_prediction.h), and rejected without a solve if not.
+    // 0: corroboration never lands one.
+    int support_radius = 5;
+  };
+
+  Schedule schedule;
+  InnerSolver solver;
+  Window window;
+  Rejection rejection;
 };
 
 // Parsing for command lines and parameter servers; throw std::invalid_argument
@@ -98,7 +121,8 @@ std::string toString(ScheduleKind kind);
 std::string toString(DistanceConvention convention);
 std::string toString(ResetPolicy policy);
 
-// Throws std::invalid_argument with the offending field if out of range.
+// Throws std::invalid_argument naming the offending field if it is out of
+// range or inconsistent with another.
 void validate(const GncOptions& options);
 
 }  // namespace core

@@ -23,7 +23,7 @@ struct GraduationState {
 
 class GraduationSchedule {
  public:
-  GraduationSchedule(const GncOptions& options, int dof);
+  GraduationSchedule(const GncOptions::Schedule& options, int dof);
 
   // (Re)starts graduation: the next step is the first one.
   void start(GraduationState* state) const;
@@ -56,13 +56,13 @@ class GraduationSchedule {
   double distanceOf(double r) const;
 
   const ChiSquareThresholds& thresholds() const { return thresholds_; }
-  const GncOptions& options() const { return options_; }
+  const GncOptions::Schedule& options() const { return options_; }
 
   // riSAM's ladder: min(1, 2.2 mu + 0.12).
   static double nextRisamMu(double mu);
 
  private:
-  GncOptions options_;
+  GncOptions::Schedule options_;
   int dof_;
   ChiSquareThresholds thresholds_;
 };

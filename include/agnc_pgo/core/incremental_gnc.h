@@ -36,7 +36,7 @@ struct LoopClosure {
   bool uncorroborated = false;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (distance < q(0.95) under the convention)
-  bool dormant = false;       // out of the linear system (see GncOptions::dormant_weight)
+  bool dormant = false;       // out of the linear system (see GncOptions::Rejection::dormant_weight)
   LoopOverride override_mode = LoopOverride::kAuto;
 };
 
