@@ -19,7 +19,36 @@ BackendNodelet::~BackendNodelet() {
   if (worker_) worker_->stop();
 }
 
+// A start-up that fails must not leave a ROS handle behind: nodelet 1.10
+// (Debian 12), on an exception from onInit(), frees this nodelet's callback
+// queues and only then the nodelet, and a publisher, subscriber, service or
+// timer destroyed after its queue calls removeByID() on the freed queue
+// (fixed upstream in nodelet 1.11, ros/nodelet_core#122). So they are all
+// shut down here, while the queues are alive, before the exception goes on.
 void BackendNodelet::onInit() {
+  try {
+    start();
+  } catch (...) {
+    shutdownHandles();
+    throw;
+  }
+}
+
+void BackendNodelet::shutdownHandles() {
+  tf_timer_.stop();
+  tf_timer_ = ros::WallTimer();
+  if (worker_) worker_->stop();  // it publishes: stopped before the publishers go
+  for (ros::ServiceServer& service : services_) service.shutdown();
+  services_.clear();
+  odometry_subscriber_.shutdown();
+  loop_closure_subscriber_.shutdown();
+  for (ros::Publisher* publisher : {&path_publisher_, &marker_publisher_, &pose_graph_publisher_,
+                                    &status_publisher_, &keyframe_publisher_})
+    publisher->shutdown();
+  broadcaster_.reset();
+}
+
+void BackendNodelet::start() {
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   std::vector<std::string> unknown;
   try {
@@ -50,7 +79,6 @@ void BackendNodelet::onInit() {
     const CommandResult loaded = worker_->loadGraph(parameters_.initial_graph);
     if (!loaded.success) {
       NODELET_FATAL_STREAM("agnc_pgo: ~initial_graph: " << loaded.message << ", not starting");
-      worker_->stop();
       throw std::runtime_error("agnc_pgo: ~initial_graph: " + loaded.message);
     }
     NODELET_INFO_STREAM("agnc_pgo: ~initial_graph: " << loaded.message);

@@ -101,8 +101,12 @@ class LaunchAndRuntime(unittest.TestCase):
                              until=lambda: probe.msg is not None and probe.msg.nodes == POSES)
         self.assertIsNotNone(probe.msg, out)
         self.assertEqual(probe.msg.nodes, POSES, out)
-        out = self.run_probe("probe_missing", ["_initial_graph:=/nonexistent/graph.g2o"], wait_for="initial_graph")
+        # A failed load stops start-up cleanly: the node says so and exits 1
+        # (it used to crash while the failed nodelet was being destroyed).
+        out = self.run_probe("probe_missing", ["_initial_graph:=/nonexistent/graph.g2o"])
         self.assertIn("~initial_graph", out)
+        self.assertIn("could not start the back-end", out)
+        self.assertEqual(self.probe_returncode, 1, out)
 
     def test_6_optimize_says_converged(self):
         r = rospy.ServiceProxy(u.BACKEND + "/optimize", Trigger)()
@@ -111,7 +115,9 @@ class LaunchAndRuntime(unittest.TestCase):
 
     def run_probe(self, name, args, wait_for=None, until=None):
         """Runs a second backend_node with `args` until its output contains
-        `wait_for` or `until()` holds (or it exits); returns its output."""
+        `wait_for` or `until()` holds (or it exits); returns its output and
+        leaves its exit code in self.probe_returncode (negative: a signal,
+        e.g. the terminate() here)."""
         log = tempfile.NamedTemporaryFile(prefix="agnc_pgo_probe_", suffix=".log", delete=False)
         p = subprocess.Popen([u.find_executable("backend_node"), "__name:=" + name] + args,
                              stdout=log, stderr=subprocess.STDOUT)
@@ -126,6 +132,7 @@ class LaunchAndRuntime(unittest.TestCase):
         if p.poll() is None:
             p.terminate()
             p.wait(10)
+        self.probe_returncode = p.returncode
         with open(log.name, errors="replace") as f:
             return f.read()
 

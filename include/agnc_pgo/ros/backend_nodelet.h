@@ -44,6 +44,8 @@ class BackendNodelet : public nodelet::Nodelet, public BackendOutput {
 
  private:
   void onInit() override;
+  void start();            // onInit's work; throws if the back-end cannot start
+  void shutdownHandles();  // stops the worker, releases every ROS handle
 
   void odometryCallback(const nav_msgs::Odometry::ConstPtr& message);
   void loopClosureCallback(const agnc_pgo::LoopClosure::ConstPtr& message);
