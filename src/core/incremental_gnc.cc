@@ -245,10 +245,12 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   // rarely has one), or, for a loop closure that comes alone, the map --
   // whether its uncertainty between the endpoints explains the residual
   // better than chance does (loop_prediction.h).
+  const auto landed = [plan](int index) {
+    return std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end();
+  };
   std::vector<int> alone;
   for (int index : far) {
-    // Landed already as the partner of an earlier one of this update.
-    if (std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end()) continue;
+    if (landed(index)) continue;  // as the partner of an earlier one of this update
     const std::vector<int> partners = corroboratingLoops(index, far);
     if (partners.empty()) {
       alone.push_back(index);
@@ -260,6 +262,8 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
     land(index, plan);
     for (int partner : partners) land(partner, plan);
   }
+  // A later one may have landed an earlier one as its partner.
+  alone.erase(std::remove_if(alone.begin(), alone.end(), landed), alone.end());
   const std::vector<bool> explained = explainedByTheMap(alone);
   for (size_t i = 0; i < alone.size(); ++i) {
     LoopClosure& loop = loops_[alone[i]];
