@@ -266,11 +266,13 @@ bool BackendNodelet::reset(std_srvs::Trigger::Request&, std_srvs::Trigger::Respo
   return respond(worker_->reset(), &res);
 }
 bool BackendNodelet::pause(std_srvs::SetBool::Request& req, std_srvs::SetBool::Response& res) {
+  {
+    // The reconfigure server shows what is in force, from before ~status does.
+    boost::recursive_mutex::scoped_lock lock(reconfigure_mutex_);
+    current_.paused = req.data;
+    if (backend_server_) backend_server_->updateConfig(toConfig<agnc_pgo::BackendConfig>(current_, ""));
+  }
   respond(worker_->setPaused(req.data), &res);
-  // The reconfigure server shows what is in force.
-  boost::recursive_mutex::scoped_lock lock(reconfigure_mutex_);
-  current_.paused = req.data;
-  if (backend_server_) backend_server_->updateConfig(toConfig<agnc_pgo::BackendConfig>(current_, ""));
   return true;
 }
 bool BackendNodelet::setLoopClosureStatus(agnc_pgo::SetLoopClosureStatus::Request& req,

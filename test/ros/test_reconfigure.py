@@ -149,6 +149,10 @@ class Reconfigure(unittest.TestCase):
         self.status.wait(lambda s: s.paused, 10, "paused in ~status")
         self.assertTrue(self.pause(False).success)
         self.status.wait(lambda s: not s.paused, 10, "resumed in ~status")
+        # The client learns the server's new values from a topic: wait for them.
+        deadline = time.time() + 10
+        while time.time() < deadline and self.backend.get_configuration(timeout=10)["paused"]:
+            time.sleep(0.05)
         self.assertFalse(self.backend.get_configuration(timeout=10)["paused"])
 
     def test_5_invalid_requests_are_refused(self):
