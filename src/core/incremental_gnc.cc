@@ -36,6 +36,18 @@ bool finiteEdge(const Edge& e) {
          e.information.allFinite();
 }
 
+// The statistics of two passes of one update.
+UpdateStats combined(const UpdateStats& a, const UpdateStats& b) {
+  UpdateStats out;
+  out.gnc_steps = a.gnc_steps + b.gnc_steps;
+  out.iterations = a.iterations + b.iterations;
+  out.refinement_iterations = a.refinement_iterations + b.refinement_iterations;
+  out.graduated = a.graduated + b.graduated;
+  out.first_variable = std::min(a.first_variable, b.first_variable);
+  out.converged = b.converged;
+  return out;
+}
+
 int olderEnd(const Edge& e) { return std::min(e.from, e.to); }
 int newerEnd(const Edge& e) { return std::max(e.from, e.to); }
 
@@ -187,27 +199,60 @@ void IncrementalGnc::finishAt(LoopClosure* loop, double mu) {
 
 UpdateStats IncrementalGnc::update() {
   UpdateStats stats;
-  if (pending_.empty() && needs_restart_.empty()) return stats;
-  // Every update starts with a small trust region that grows only while the
+  // A loop closure the map explained tightens the map around its cycle:
+  // those rejected there because the map could not tell are judged again,
+  // and land in another pass if it now explains them.
+  for (bool first = true; !pending_.empty() || !needs_restart_.empty(); first = false) {
+    UpdateStats pass;
+    const std::vector<int> explained = updatePass(&pass);
+    stats = first ? pass : combined(stats, pass);
+    pending_ = explainedAfterLanding(explained);
+  }
+  return stats;
+}
+
+std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats) {
+  // Every pass starts with a small trust region that grows only while the
   // steps agree with the model (see GncOptions::InnerSolver::trust_region_radius).
   solver_.resetTrustRegion();
   UpdatePlan plan = judgeArrivals();
   planWindow(&plan);
-  stats.first_variable = plan.first;
+  stats->first_variable = plan.first;
   if (plan.moves) {
     selectGraduating(&plan);
-    stats.graduated = static_cast<int>(plan.graduating.size());
+    stats->graduated = static_cast<int>(plan.graduating.size());
     const Poses window_before = windowPoses(plan);
-    runGncSteps(&plan, &stats);
-    settle(plan.first, maxSettleIterations(), plan.last_step, &stats);
-    refine(plan, window_before, &stats);
+    runGncSteps(&plan, stats);
+    settle(plan.first, maxSettleIterations(), plan.last_step, stats);
+    refine(plan, window_before, stats);
   }
-  finish(plan, stats);
+  finish(plan, *stats);
   pending_.clear();
   needs_restart_.clear();
-  total_iterations_ += stats.iterations;
-  total_gnc_steps_ += stats.gnc_steps;
-  return stats;
+  total_iterations_ += stats->iterations;
+  total_gnc_steps_ += stats->gnc_steps;
+  return plan.explained;
+}
+
+std::vector<int> IncrementalGnc::explainedAfterLanding(const std::vector<int>& landed) {
+  std::vector<int> candidates;
+  if (landed.empty()) return candidates;
+  int low = numPoses(), high = 0;
+  for (int index : landed) {
+    low = std::min(low, olderEnd(loops_[index].edge));
+    high = std::max(high, newerEnd(loops_[index].edge));
+  }
+  for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
+    const LoopClosure& loop = loops_[index];
+    if (loop.uncorroborated && loop.override_mode == LoopOverride::kAuto && newerEnd(loop.edge) >= low &&
+        olderEnd(loop.edge) <= high)
+      candidates.push_back(index);
+  }
+  const std::vector<bool> explained = explainedByTheMap(candidates);
+  std::vector<int> out;
+  for (size_t i = 0; i < candidates.size(); ++i)
+    if (explained[i]) out.push_back(candidates[i]);
+  return out;
 }
 
 IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals() {
@@ -269,6 +314,7 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
     LoopClosure& loop = loops_[alone[i]];
     if (explained[i]) {
       land(alone[i], plan);
+      plan->explained.push_back(alone[i]);
       continue;
     }
     // Pulling the map towards it could only fold it. Rejected at mu = 1,

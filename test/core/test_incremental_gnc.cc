@@ -438,6 +438,58 @@ TEST(IncrementalGncEndToEnd, AnUncertainMapWaitsForASecondLoopClosure) {
   EXPECT_TRUE(drive.engine.loopClosures()[1].inlier);
 }
 
+// A map too uncertain for a loop closure is tightened by a later one: the
+// block again, its odometry stating 15 times its noise, so the 800-pose
+// loop closure back to the start (A) is held back. The drive goes on east
+// along the bottom and north through the middle of the block, and closes a
+// 600-pose cycle there (B), which the map explains. Once B has landed, the
+// map between A's endpoints is tighter: A is judged again and lands too.
+TEST(IncrementalGncEndToEnd, ALoopClosureTheMapCouldNotTellIsJudgedAgainWhenItTightens) {
+  std::mt19937 random(7);
+  std::normal_distribution<double> noise(0.0, 1.0);
+  const double sigma_xy = 0.02, sigma_yaw = 0.2 * M_PI / 180.0, stated = 15.0;
+  const Eigen::Matrix3d information =
+      Eigen::Vector3d(1 / (sigma_xy * sigma_xy), 1 / (sigma_xy * sigma_xy), 1 / (sigma_yaw * sigma_yaw)).asDiagonal();
+  PoseGraph graph;
+  graph.dimension = 2;
+  Poses truth{Pose::fromSE2(0, 0, 0)};
+  IncrementalGnc engine(2, GncOptions());
+  engine.addFirstPose(truth[0], 1e8 * Eigen::Matrix3d::Identity());
+  auto step = [&](double turn) {
+    const int i = static_cast<int>(truth.size()) - 1;
+    truth.push_back(truth[i] * Pose::fromSE2(1.0, 0.0, turn));
+    Edge e = edge(i, i + 1, Pose::fromSE2(1.0 + sigma_xy * noise(random), sigma_xy * noise(random),
+                                          turn + sigma_yaw * noise(random)));
+    e.information = information / (stated * stated);
+    e.kind = EdgeKind::kOdometry;
+    graph.edges.push_back(e);
+    engine.addOdometry(e);
+  };
+  auto close = [&](int from, int to) {
+    Edge e = edge(from, to, truth[from].inverse() * truth[to]);
+    e.information = information;
+    e.kind = EdgeKind::kLoopClosure;
+    graph.edges.push_back(e);
+    engine.addLoopClosure(e);
+    engine.update();
+  };
+  for (int i = 0; i < 800; ++i) step(i % 200 == 199 ? M_PI / 2 : 0.0);
+  close(800, 0);
+  EXPECT_TRUE(engine.loopClosures()[0].uncorroborated);
+  EXPECT_FALSE(engine.loopClosures()[0].inlier);
+  for (int i = 0; i < 100; ++i) step(i == 99 ? M_PI / 2 : 0.0);
+  for (int i = 0; i < 200; ++i) step(0.0);
+  ASSERT_LT((truth[1100].translation - truth[500].translation).norm(), 1e-9);
+  close(1100, 500);
+  EXPECT_TRUE(engine.loopClosures()[1].inlier);
+  EXPECT_TRUE(engine.loopClosures()[0].inlier);
+  EXPECT_FALSE(engine.loopClosures()[0].uncorroborated);
+  initializeFromOdometry(&graph);
+  PoseGraph optimum = graph;
+  optimizeBatch(&optimum);
+  EXPECT_LT(absoluteTrajectoryError(engine.poses(), optimum.poses, 2), 0.05);
+}
+
 // Two sessions: the second starts 30 m and 1 rad away from where the first
 // ended, with no odometry between them (a robot restarted). Its loop
 // closures to the first session attach it; the result is the least-squares

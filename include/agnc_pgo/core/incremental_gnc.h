@@ -73,7 +73,9 @@ class IncrementalGnc {
   int addLoopClosure(const Edge& edge);
 
   // Brings the estimate up to date. Without queued loop closures or
-  // overrides this does nothing (no solve is needed).
+  // overrides this does nothing (no solve is needed). A far loop closure
+  // that the map explained and landed makes another pass judge again the
+  // ones rejected as unexplained whose cycles overlap its own.
   UpdateStats update();
   // Iterates on the whole graph until convergence (at most `max_iterations`).
   UpdateStats optimize(int max_iterations = 20);
@@ -111,6 +113,7 @@ class IncrementalGnc {
     std::vector<int> accepted;   // ... of which accepted
     std::vector<int> to_graduate;  // new loop closures that graduate
     std::vector<int> cycles;     // ... of which need their whole cycle free to land
+    std::vector<int> explained;  // ... of which came alone and the map explained
     std::vector<int> graduating;  // all that graduate now (new + reset); shrinks as they finish
     std::vector<int> graduated;  // all that started graduating in this update
     std::vector<int> still_dormant;  // reset, but left out as dormant
@@ -118,7 +121,13 @@ class IncrementalGnc {
     double last_step = std::numeric_limits<double>::infinity();
   };
 
-  // The steps of update(), in order.
+  // One pass of update(): judges what is pending and brings the estimate up
+  // to date; returns the far loop closures the map explained and landed.
+  std::vector<int> updatePass(UpdateStats* stats);
+  // Loop closures rejected on arrival as unexplained whose cycle overlaps
+  // one of `landed`'s and that the map, tighter now, explains.
+  std::vector<int> explainedAfterLanding(const std::vector<int>& landed);
+  // The steps of a pass, in order.
   UpdatePlan judgeArrivals();
   void judgeFar(const std::vector<int>& far, UpdatePlan* plan);
   void land(int index, UpdatePlan* plan);
