@@ -357,11 +357,30 @@ std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(co
     Eigen::MatrixXd jt = Eigen::MatrixXd::Zero(n, d);
     if (va >= 0) jt.block(static_cast<long>(va) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_a, d, d).transpose();
     if (vb >= 0) jt.block(static_cast<long>(vb) * d, 0, d, d) = Eigen::Map<const RowMajor>(jac_b, d, d).transpose();
-    const Eigen::MatrixXd x = solve(jt);
-    if (x.allFinite()) out[i].covariance = variance_factor * (out[i].covariance + jt.transpose() * x);
+    const Eigen::MatrixXd spread = relativeCovariance(jt, std::min(va < 0 ? vb : va, vb < 0 ? va : vb) * d);
+    if (spread.allFinite()) out[i].covariance = variance_factor * (out[i].covariance + spread);
     else out[i].covariance = Eigen::MatrixXd::Constant(d, d, std::numeric_limits<double>::infinity());
   }
   return out;
+}
+
+Eigen::MatrixXd SparsePoseGraphSolver::relativeCovariance(const Eigen::MatrixXd& jt, long first_row) {
+  if (supernodal_) return jt.transpose() * solve(jt);
+  // J H^-1 J^T = (L^-1 J^T)^T (L^-1 J^T), H = L L^T. J^T is zero above
+  // first_row, and so is L^-1 J^T; below, only the columns of L that the
+  // forward substitution reaches from there (the elimination tree's paths
+  // to its root) change it, a small part of L for a factor with two
+  // endpoints -- where a full solve would go through all of L twice.
+  const Eigen::SparseMatrix<double>& l = decompositions_->simplicial.matrixL().nestedExpression();
+  Eigen::MatrixXd x = jt;
+  const long n = x.rows();
+  for (long j = first_row; j < n; ++j) {
+    if (x.row(j).isZero(0.0)) continue;
+    Eigen::SparseMatrix<double>::InnerIterator it(l, j);  // the diagonal comes first
+    x.row(j) /= it.value();
+    for (++it; it; ++it) x.row(it.row()) -= it.value() * x.row(j);
+  }
+  return x.transpose() * x;
 }
 
 double SparsePoseGraphSolver::windowVarianceFactor() const {

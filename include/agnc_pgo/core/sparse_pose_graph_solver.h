@@ -157,6 +157,9 @@ class SparsePoseGraphSolver {
   bool factorize();
   // The IRLS-weighted chi2 of the window's factors over their redundancy.
   double windowVarianceFactor() const;
+  // J H^-1 J^T for a factor's whitened Jacobian J (J^T: window rows x d,
+  // zero above first_row) with the factorised Hessian of the window.
+  Eigen::MatrixXd relativeCovariance(const Eigen::MatrixXd& jt, long first_row);
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs);
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
