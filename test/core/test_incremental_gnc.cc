@@ -344,48 +344,55 @@ TEST(IncrementalGncEndToEnd, RingClosesWhenReplayedEntryByEntry) {
 
 // A drive around a block, back at the start after 800 one-metre steps, with
 // odometry noise drawn at sigma 2 cm and 0.2 degrees per step; the
-// odometry states `stated` times that sigma. Loop closures measure
-// "back where pose `to` was" at the same information.
+// odometry states `stated` times that sigma. A true loop closure measures
+// the true relative pose at the same information; a false one claims that
+// two places are the same.
 struct BlockDrive {
   static constexpr int kSide = 200, kPoses = 4 * kSide;
+  static constexpr double kSigmaXy = 0.02, kSigmaYaw = 0.2 * M_PI / 180.0;
+  std::mt19937 random{7};
+  std::normal_distribution<double> noise{0.0, 1.0};
+  const Eigen::Matrix3d information =
+      Eigen::Vector3d(1 / (kSigmaXy * kSigmaXy), 1 / (kSigmaXy * kSigmaXy), 1 / (kSigmaYaw * kSigmaYaw)).asDiagonal();
+  double stated;
+  Poses truth{Pose::fromSE2(0, 0, 0)};
   PoseGraph graph;
   IncrementalGnc engine{2, GncOptions()};
-  Eigen::Matrix3d information;
 
-  explicit BlockDrive(double stated) {
-    std::mt19937 random(7);
-    std::normal_distribution<double> noise(0.0, 1.0);
-    const double sigma_xy = 0.02, sigma_yaw = 0.2 * M_PI / 180.0;
-    information = Eigen::Vector3d(1 / (sigma_xy * sigma_xy), 1 / (sigma_xy * sigma_xy), 1 / (sigma_yaw * sigma_yaw))
-                      .asDiagonal();
+  explicit BlockDrive(double stated_noise) : stated(stated_noise) {
     graph.dimension = 2;
-    graph.poses.push_back(Pose::fromSE2(0, 0, 0));
-    engine.addFirstPose(graph.poses[0], 1e8 * Eigen::Matrix3d::Identity());
-    for (int i = 0; i < kPoses; ++i) {
-      const double turn = (i % kSide == kSide - 1) ? M_PI / 2 : 0.0;
-      Edge e = edge(i, i + 1, Pose::fromSE2(1.0 + sigma_xy * noise(random), sigma_xy * noise(random),
-                                            turn + sigma_yaw * noise(random)));
-      e.information = information / (stated * stated);
-      e.kind = EdgeKind::kOdometry;
-      graph.edges.push_back(e);
-      engine.addOdometry(e);
-    }
+    engine.addFirstPose(truth[0], 1e8 * Eigen::Matrix3d::Identity());
+    for (int i = 0; i < kPoses; ++i) step(i % kSide == kSide - 1 ? M_PI / 2 : 0.0);
   }
-  const LoopClosure& close(int from, int to) {
-    Edge e = edge(from, to, Pose::fromSE2(0, 0, 0));
+  // One metre on, turning by `turn` at its end.
+  void step(double turn) {
+    const int i = static_cast<int>(truth.size()) - 1;
+    truth.push_back(truth[i] * Pose::fromSE2(1.0, 0.0, turn));
+    Edge e = edge(i, i + 1, Pose::fromSE2(1.0 + kSigmaXy * noise(random), kSigmaXy * noise(random),
+                                          turn + kSigmaYaw * noise(random)));
+    e.information = information / (stated * stated);
+    e.kind = EdgeKind::kOdometry;
+    graph.edges.push_back(e);
+    engine.addOdometry(e);
+  }
+  const LoopClosure& close(int from, int to) { return add(from, to, truth[from].inverse() * truth[to]); }
+  const LoopClosure& claimSamePlace(int from, int to) { return add(from, to, Pose::fromSE2(0, 0, 0)); }
+  PoseGraph optimum() const {
+    PoseGraph g = graph;
+    initializeFromOdometry(&g);
+    optimizeBatch(&g);
+    return g;
+  }
+
+ private:
+  const LoopClosure& add(int from, int to, const Pose& z) {
+    Edge e = edge(from, to, z);
     e.information = information;
     e.kind = EdgeKind::kLoopClosure;
     graph.edges.push_back(e);
     engine.addLoopClosure(e);
     engine.update();
     return engine.loopClosures().back();
-  }
-  PoseGraph optimum() const {
-    PoseGraph g = graph;
-    g.poses.clear();
-    initializeFromOdometry(&g);
-    optimizeBatch(&g);
-    return g;
   }
 };
 
@@ -410,7 +417,7 @@ TEST(IncrementalGncEndToEnd, ALoneLoopClosureAfterALongDriftClosesTheMap) {
 TEST(IncrementalGncEndToEnd, ALoneFalseLoopClosureIsRejectedByTheMap) {
   BlockDrive drive(1.0);
   const Pose before = drive.engine.pose(BlockDrive::kPoses);
-  const LoopClosure& loop = drive.close(BlockDrive::kPoses, 2 * BlockDrive::kSide);
+  const LoopClosure& loop = drive.claimSamePlace(BlockDrive::kPoses, 2 * BlockDrive::kSide);
   EXPECT_FALSE(loop.inlier);
   EXPECT_TRUE(loop.uncorroborated);
   EXPECT_EQ(drive.engine.pose(BlockDrive::kPoses).translation, before.translation);
@@ -428,11 +435,7 @@ TEST(IncrementalGncEndToEnd, AnUncertainMapWaitsForASecondLoopClosure) {
   EXPECT_TRUE(first.uncorroborated);
   EXPECT_EQ(drive.engine.pose(BlockDrive::kPoses).translation, before.translation);
 
-  Edge step = edge(BlockDrive::kPoses, BlockDrive::kPoses + 1, Pose::fromSE2(1.0, 0.0, 0.0));
-  step.information = drive.graph.edges[0].information;
-  step.kind = EdgeKind::kOdometry;
-  drive.graph.edges.push_back(step);
-  drive.engine.addOdometry(step);
+  drive.step(0.0);
   drive.close(BlockDrive::kPoses + 1, 1);
   EXPECT_TRUE(drive.engine.loopClosures()[0].inlier);
   EXPECT_TRUE(drive.engine.loopClosures()[1].inlier);
@@ -445,49 +448,19 @@ TEST(IncrementalGncEndToEnd, AnUncertainMapWaitsForASecondLoopClosure) {
 // 600-pose cycle there (B), which the map explains. Once B has landed, the
 // map between A's endpoints is tighter: A is judged again and lands too.
 TEST(IncrementalGncEndToEnd, ALoopClosureTheMapCouldNotTellIsJudgedAgainWhenItTightens) {
-  std::mt19937 random(7);
-  std::normal_distribution<double> noise(0.0, 1.0);
-  const double sigma_xy = 0.02, sigma_yaw = 0.2 * M_PI / 180.0, stated = 15.0;
-  const Eigen::Matrix3d information =
-      Eigen::Vector3d(1 / (sigma_xy * sigma_xy), 1 / (sigma_xy * sigma_xy), 1 / (sigma_yaw * sigma_yaw)).asDiagonal();
-  PoseGraph graph;
-  graph.dimension = 2;
-  Poses truth{Pose::fromSE2(0, 0, 0)};
-  IncrementalGnc engine(2, GncOptions());
-  engine.addFirstPose(truth[0], 1e8 * Eigen::Matrix3d::Identity());
-  auto step = [&](double turn) {
-    const int i = static_cast<int>(truth.size()) - 1;
-    truth.push_back(truth[i] * Pose::fromSE2(1.0, 0.0, turn));
-    Edge e = edge(i, i + 1, Pose::fromSE2(1.0 + sigma_xy * noise(random), sigma_xy * noise(random),
-                                          turn + sigma_yaw * noise(random)));
-    e.information = information / (stated * stated);
-    e.kind = EdgeKind::kOdometry;
-    graph.edges.push_back(e);
-    engine.addOdometry(e);
-  };
-  auto close = [&](int from, int to) {
-    Edge e = edge(from, to, truth[from].inverse() * truth[to]);
-    e.information = information;
-    e.kind = EdgeKind::kLoopClosure;
-    graph.edges.push_back(e);
-    engine.addLoopClosure(e);
-    engine.update();
-  };
-  for (int i = 0; i < 800; ++i) step(i % 200 == 199 ? M_PI / 2 : 0.0);
-  close(800, 0);
+  BlockDrive drive(15.0);
+  const IncrementalGnc& engine = drive.engine;
+  drive.close(BlockDrive::kPoses, 0);
   EXPECT_TRUE(engine.loopClosures()[0].uncorroborated);
   EXPECT_FALSE(engine.loopClosures()[0].inlier);
-  for (int i = 0; i < 100; ++i) step(i == 99 ? M_PI / 2 : 0.0);
-  for (int i = 0; i < 200; ++i) step(0.0);
-  ASSERT_LT((truth[1100].translation - truth[500].translation).norm(), 1e-9);
-  close(1100, 500);
+  for (int i = 0; i < 100; ++i) drive.step(i == 99 ? M_PI / 2 : 0.0);
+  for (int i = 0; i < 200; ++i) drive.step(0.0);
+  ASSERT_LT((drive.truth[1100].translation - drive.truth[500].translation).norm(), 1e-9);
+  drive.close(1100, 500);
   EXPECT_TRUE(engine.loopClosures()[1].inlier);
   EXPECT_TRUE(engine.loopClosures()[0].inlier);
   EXPECT_FALSE(engine.loopClosures()[0].uncorroborated);
-  initializeFromOdometry(&graph);
-  PoseGraph optimum = graph;
-  optimizeBatch(&optimum);
-  EXPECT_LT(absoluteTrajectoryError(engine.poses(), optimum.poses, 2), 0.05);
+  EXPECT_LT(absoluteTrajectoryError(engine.poses(), drive.optimum().poses, 2), 0.05);
 }
 
 // Two sessions: the second starts 30 m and 1 rad away from where the first
