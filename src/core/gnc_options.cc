@@ -26,6 +26,12 @@ ResetPolicy parseResetPolicy(const std::string& name) {
   throw std::invalid_argument("unknown reset policy '" + name + "' (none, window, all)");
 }
 
+Classification parseClassification(const std::string& name) {
+  if (name == "weight") return Classification::kWeight;
+  if (name == "distance") return Classification::kDistance;
+  throw std::invalid_argument("unknown classification '" + name + "' (weight, distance)");
+}
+
 std::string toString(ScheduleKind kind) {
   switch (kind) {
     case ScheduleKind::kAgnc: return "agnc";
@@ -47,6 +53,10 @@ std::string toString(ResetPolicy policy) {
     case ResetPolicy::kAll: return "all";
   }
   return "?";
+}
+
+std::string toString(Classification classification) {
+  return classification == Classification::kWeight ? "weight" : "distance";
 }
 
 void validate(const GncOptions& o) {

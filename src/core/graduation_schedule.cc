@@ -16,6 +16,10 @@ double GraduationSchedule::distanceOf(double r) const {
   return options_.distance == DistanceConvention::kSquared ? r * r : r;
 }
 
+double GraduationSchedule::classificationDistance(double r) const {
+  return options_.classification == Classification::kWeight ? r * r : distanceOf(r);
+}
+
 void GraduationSchedule::start(GraduationState* s) const {
   s->step = (options_.kind == ScheduleKind::kRisam) ? 0 : s->init_step;
   s->steps_at_one = 0;

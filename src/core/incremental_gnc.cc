@@ -141,7 +141,7 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
     case LoopOverride::kForceInlier: loop->inlier = true; break;
     case LoopOverride::kForceOutlier: loop->inlier = false; break;
     case LoopOverride::kAuto:
-      loop->inlier = schedule_.isInlier(schedule_.distanceOf(loop->distance));
+      loop->inlier = schedule_.classifiesAsInlier(loop->distance);
       break;
   }
   const bool rejected_at_one = loop->override_mode == LoopOverride::kAuto &&
@@ -375,7 +375,9 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
   for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p) {
     for (int other : loops_by_newer_pose_[p]) {
       const LoopClosure& candidate = loops_[other];
-      const bool rejected = !candidate.inlier && !candidate.graduation.graduating;
+      // Rejected by the graduation's own test, whatever the user sees.
+      const bool rejected = !schedule_.isInlier(schedule_.distanceOf(candidate.distance)) &&
+                            !candidate.graduation.graduating;
       const bool arriving = std::find(far.begin(), far.end(), other) != far.end();
       if (other == index || candidate.override_mode != LoopOverride::kAuto || !(rejected || arriving) ||
           !areNeighbours(e, candidate.edge, radius))

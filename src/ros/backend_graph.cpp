@@ -464,7 +464,7 @@ GraphSnapshotPtr BackendGraph::snapshot(bool with_edges) const {
     edge.mode = l.override_mode;
     edge.source = loop_meta_[k].source;
     edge.score = loop_meta_[k].score;
-    edge.test_distance = engine_->schedule().distanceOf(l.distance);
+    edge.test_distance = engine_->schedule().classificationDistance(l.distance);
     edge.threshold = engine_->schedule().thresholds().q95;
     edge.uncorroborated = l.uncorroborated || (k < carried_uncorroborated_.size() && carried_uncorroborated_[k]);
     edge.dormant = l.dormant;

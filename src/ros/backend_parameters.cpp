@@ -113,6 +113,7 @@ template <class O, class F>
 void forEachGncOption(O& o, F&& f) {
   f("schedule", o.schedule.kind);
   f("distance", o.schedule.distance);
+  f("classification", o.schedule.classification);
   f("reset", o.schedule.reset);
   f("shape_c", o.schedule.shape_c);
   f("fixed_alpha", o.schedule.fixed_alpha);
@@ -143,6 +144,7 @@ void forEachRuntimeParameter(P& p, const std::string& ns, F&& f) {
 std::string text(core::ScheduleKind v) { return core::toString(v); }
 std::string text(core::DistanceConvention v) { return core::toString(v); }
 std::string text(core::ResetPolicy v) { return core::toString(v); }
+std::string text(core::Classification v) { return core::toString(v); }
 std::string text(bool v) { return v ? "true" : "false"; }
 std::string text(int v) { return std::to_string(v); }
 std::string text(double v) {
@@ -154,6 +156,7 @@ std::string text(double v) {
 void parse(const std::string& t, core::ScheduleKind* v) { *v = core::parseSchedule(t); }
 void parse(const std::string& t, core::DistanceConvention* v) { *v = core::parseDistanceConvention(t); }
 void parse(const std::string& t, core::ResetPolicy* v) { *v = core::parseResetPolicy(t); }
+void parse(const std::string& t, core::Classification* v) { *v = core::parseClassification(t); }
 
 // An enum from its text; a bad one names the parameter.
 template <class E>

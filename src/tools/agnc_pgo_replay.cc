@@ -32,7 +32,8 @@ const char* kUsage =
     "usage: agnc_pgo_replay --input FILE.g2o|FILE.irl [--outliers PERCENT] [--seed N]\n"
     "                       [--schedule agnc|agnc-fixed|risam|none] [--ground-truth GT.g2o]\n"
     "                       [--output DIR] [--quiet]\n"
-    "                       [--distance reference|squared] [--reset none|window|all]\n"
+    "                       [--distance reference|squared] [--classification weight|distance]\n"
+    "                       [--reset none|window|all]\n"
     "                       [--full-window] [--max-window POSES] [--no-global-refinement] [--settle N]\n"
     "                       [--iterations-per-step N] [--no-trust-region] [--trust-region-radius R] [--max-trust-region-radius R]\n"
     "                       [--dormant-weight W] [--support-radius POSES] [--reference-alpha]\n";
@@ -92,6 +93,7 @@ Arguments parseArguments(int argc, char** argv) {
     else if (flag == "--output") a.output = value();
     else if (flag == "--quiet") a.quiet = true;
     else if (flag == "--distance") a.gnc.schedule.distance = parseDistanceConvention(value());
+    else if (flag == "--classification") a.gnc.schedule.classification = parseClassification(value());
     else if (flag == "--reset") a.gnc.schedule.reset = parseResetPolicy(value());
     else if (flag == "--full-window") a.gnc.window.local = false;
     else if (flag == "--max-window") a.gnc.window.max_poses = parseInt(flag, value());
@@ -223,6 +225,7 @@ int main(int argc, char** argv) {
          << "  \"seed\": " << args.seed << ",\n"
          << "  \"schedule\": \"" << toString(args.gnc.schedule.kind) << "\",\n"
          << "  \"distance\": \"" << toString(args.gnc.schedule.distance) << "\",\n"
+         << "  \"classification\": \"" << toString(args.gnc.schedule.classification) << "\",\n"
          << "  \"reset\": \"" << toString(args.gnc.schedule.reset) << "\",\n"
          << "  \"local_window\": " << (args.gnc.window.local ? "true" : "false") << ",\n"
          << "  \"max_window_poses\": " << args.gnc.window.max_poses << ",\n"

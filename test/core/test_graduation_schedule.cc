@@ -1,9 +1,11 @@
 // Each graduation rule on its own (ALGORITHM.md §3-4).
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <vector>
 
 #include "agnc_pgo/core/graduation_schedule.h"
+#include "agnc_pgo/core/sig_loss.h"
 
 using namespace agnc_pgo::core;
 
@@ -114,6 +116,30 @@ TEST(GraduationSchedule, DistanceConventions) {
   // Final classification at q(0.95) of the convention's value.
   EXPECT_TRUE(GraduationSchedule(o, 3).isInlier(7.8));
   EXPECT_FALSE(GraduationSchedule(o, 3).isInlier(7.82));
+}
+
+TEST(GraduationSchedule, ClassificationByWeightAgreesWithTheKernelWeight) {
+  GncOptions::Schedule o;  // distance: reference
+  o.classification = Classification::kWeight;
+  const GraduationSchedule s(o, 6);
+  // 3-D, 10 sigma off: r = 10 < q(0.95) = 12.59, so the reference test says
+  // inlier, while its weight at mu = 1 is 0.0068.
+  EXPECT_TRUE(s.isInlier(s.distanceOf(10.0)));
+  EXPECT_FALSE(s.classifiesAsInlier(10.0));
+  EXPECT_DOUBLE_EQ(s.classificationDistance(10.0), 100.0);
+  // The gate r^2 = q(0.95) is where the weight crosses that of the gate.
+  const SigLoss loss(/*mu=*/1.0, o.shape_c);
+  const double gate = std::sqrt(s.thresholds().q95);
+  auto weight = [&](double r) { return loss.weight(r); };
+  for (double r : {0.5, 1.0, 2.0, 3.0, 3.5, 4.0, 7.0, 10.0})
+    EXPECT_EQ(s.classifiesAsInlier(r), weight(r) > weight(gate)) << "r = " << r;
+  // The reference code's classification stays available.
+  o.classification = Classification::kDistance;
+  EXPECT_TRUE(GraduationSchedule(o, 6).classifiesAsInlier(10.0));
+  EXPECT_DOUBLE_EQ(GraduationSchedule(o, 6).classificationDistance(10.0), 10.0);
+  EXPECT_EQ(parseClassification("distance"), Classification::kDistance);
+  EXPECT_EQ(toString(parseClassification("weight")), "weight");
+  EXPECT_THROW(parseClassification("r2"), std::invalid_argument);
 }
 
 TEST(GraduationSchedule, NoneNeverGraduates) {

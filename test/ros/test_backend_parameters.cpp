@@ -91,7 +91,7 @@ TEST(RuntimeParameters, GeneratedConfigsAndParameterListsAgree) {
     EXPECT_EQ(namesOf(msg), listed) << "server ~" << ns;
   }
   EXPECT_EQ(runtimeParameterNames("").size(), 11u);
-  EXPECT_EQ(runtimeParameterNames(kGncNamespace).size(), 19u);
+  EXPECT_EQ(runtimeParameterNames(kGncNamespace).size(), 20u);
   EXPECT_THROW(runtimeParameterNames("keyframes"), std::logic_error);
   // An entry no parameter maps is an error, not silently ignored.
   dynamic_reconfigure::Config extra = defaultMessage<agnc_pgo::BackendConfig>();

@@ -23,6 +23,20 @@ enum class DistanceConvention {
   kSquared,    // r^2, the statistically standard test
 };
 
+// What decides the classification a user sees (inlier / outlier).
+enum class Classification {
+  // The kernel's verdict: inlier iff r^2 < q(0.95), i.e. iff the loop
+  // closure's weight at mu = 1 is at least that of a residual at the
+  // chi-square gate (0.287 in 2-D, 0.174 in 3-D for c = 3). A loop closure
+  // reported as an inlier pulls the map; one reported as an outlier hardly
+  // does.
+  kWeight,
+  // The graduation's distance convention against q(0.95) (with `reference`:
+  // r < q(0.95), as both reference implementations classify; a loop closure
+  // 10 sigma off in 3-D is then an inlier at weight 0.007).
+  kDistance,
+};
+
 // Which existing loop closures restart graduation when new ones arrive.
 enum class ResetPolicy {
   kNone,    // only the new loop closures graduate
@@ -35,7 +49,13 @@ struct GncOptions {
   // The SIG kernel and how its mu rises, step by step (graduation_schedule.h).
   struct Schedule {
     ScheduleKind kind = ScheduleKind::kAgnc;
+    // The convention of the graduation: the alpha rule, the arrival bands
+    // and the adaptation of the starting point (the paper's is `reference`).
     DistanceConvention distance = DistanceConvention::kReference;
+    // The report keeps the reference code's classification by default:
+    // kWeight costs recall on true loop closures the kernel down-weights
+    // (README, "Classification").
+    Classification classification = Classification::kDistance;
     ResetPolicy reset = ResetPolicy::kWindow;
     double shape_c = 3.0;        // SIG kernel shape (inliers within ~c sigma)
     double fixed_alpha = 0.5;    // kAgncFixed
@@ -117,9 +137,11 @@ struct GncOptions {
 ScheduleKind parseSchedule(const std::string& name);
 DistanceConvention parseDistanceConvention(const std::string& name);
 ResetPolicy parseResetPolicy(const std::string& name);
+Classification parseClassification(const std::string& name);
 std::string toString(ScheduleKind kind);
 std::string toString(DistanceConvention convention);
 std::string toString(ResetPolicy policy);
+std::string toString(Classification classification);
 
 // Throws std::invalid_argument naming the offending field if it is out of
 // range or inconsistent with another.

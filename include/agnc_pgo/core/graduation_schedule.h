@@ -49,8 +49,15 @@ class GraduationSchedule {
   // (0 = gradual curve): jumps at both band edges.
   double referenceAlpha(double distance) const;
 
-  // Final classification: inlier iff distance < q(0.95).
+  // The graduation's own test: `distance` (under the convention) < q(0.95).
+  // The engine uses it to tell rejected loop closures from kept ones.
   bool isInlier(double distance) const { return distance < thresholds_.q95; }
+
+  // The classification a user sees for a whitened residual norm r
+  // (GncOptions::Schedule::classification), and the value it compares with
+  // q(0.95): r^2 for kWeight, the convention's distance for kDistance.
+  bool classifiesAsInlier(double r) const { return classificationDistance(r) < thresholds_.q95; }
+  double classificationDistance(double r) const;
 
   // The value compared with the quantiles for a whitened residual norm r.
   double distanceOf(double r) const;

@@ -35,7 +35,7 @@ struct LoopClosure {
   // the map does not explain better than chance (loop_prediction.h).
   bool uncorroborated = false;
   double weight = 1.0;        // kernel weight at the current mu
-  bool inlier = true;         // classification (distance < q(0.95) under the convention)
+  bool inlier = true;         // classification (GncOptions::Schedule::classification)
   bool dormant = false;       // out of the linear system (see GncOptions::Rejection::dormant_weight)
   LoopOverride override_mode = LoopOverride::kAuto;
 };
