@@ -1,7 +1,9 @@
-// The SE(2) and SE(3) error terms: automatic Jacobians against numeric
-// differentiation, and zero error for consistent poses.
+// The SE(2) and SE(3) error terms: analytic Jacobians against automatic and
+// numeric differentiation, and zero error for consistent poses.
 #include <gtest/gtest.h>
 
+#include <array>
+#include <cmath>
 #include <random>
 
 #include <ceres/numeric_diff_cost_function.h>
@@ -72,21 +74,121 @@ TEST(PoseError2d, AnalyticJacobiansMatchAutomaticDifferentiation) {
   }
 }
 
+namespace {
+
+// A random SE(3) case for the error term: poses a and b, measurement z and a
+// non-diagonal square-root information. Every third case puts the rotation
+// error near pi (dq's w near zero, on either side), and the quaternions of a
+// and b get a random sign, so both branches of the sign flip are taken.
+struct Case3d {
+  std::array<double, 7> a, b;
+  Eigen::Vector3d p_z;
+  Eigen::Quaterniond q_z;
+  Eigen::Matrix<double, 6, 6> s;
+};
+
+Eigen::Quaterniond randomRotation(std::mt19937* rng) {
+  std::normal_distribution<double> n(0.0, 1.0);
+  return Eigen::Quaterniond(n(*rng), n(*rng), n(*rng), n(*rng)).normalized();
+}
+
+std::array<double, 7> toArray(const Eigen::Vector3d& p, const Eigen::Quaterniond& q) {
+  return {p.x(), p.y(), p.z(), q.x(), q.y(), q.z(), q.w()};
+}
+
+Case3d randomCase3d(int trial, std::mt19937* rng) {
+  std::uniform_real_distribution<double> u(-5.0, 5.0);
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  Case3d c;
+  const Eigen::Vector3d p_a(u(*rng), u(*rng), u(*rng));
+  const Eigen::Quaterniond q_a = randomRotation(rng);
+  c.p_z = Eigen::Vector3d(u(*rng), u(*rng), u(*rng));
+  c.q_z = randomRotation(rng);
+  Eigen::Quaterniond q_b;
+  Eigen::Vector3d p_b;
+  if (trial % 3 == 0) {
+    // b = a z delta with delta a rotation by pi +- 1e-3 (or a small angle).
+    const Eigen::Vector3d axis = Eigen::Vector3d(unit(*rng), unit(*rng), unit(*rng)).normalized();
+    const double angle = trial % 2 == 0 ? M_PI + 1e-3 * unit(*rng) : 1e-3 * unit(*rng);
+    const Eigen::Quaterniond delta(Eigen::AngleAxisd(angle, axis));
+    q_b = q_a * c.q_z * delta;
+    p_b = p_a + q_a * c.p_z + Eigen::Vector3d(unit(*rng), unit(*rng), unit(*rng));
+  } else {
+    q_b = randomRotation(rng);
+    p_b = Eigen::Vector3d(u(*rng), u(*rng), u(*rng));
+  }
+  const double sign_a = unit(*rng) < 0.0 ? -1.0 : 1.0;
+  const double sign_b = unit(*rng) < 0.0 ? -1.0 : 1.0;
+  c.a = toArray(p_a, Eigen::Quaterniond(sign_a * q_a.coeffs()));
+  c.b = toArray(p_b, Eigen::Quaterniond(sign_b * q_b.coeffs()));
+  c.s = sqrtInformation(randomInformation(6, rng) * (trial % 5 == 0 ? 100.0 : 1.0));
+  return c;
+}
+
+// The w of the case's rotation error before the sign flip.
+double errorW(const Case3d& c) {
+  const Eigen::Quaterniond q_a(c.a[6], c.a[3], c.a[4], c.a[5]);
+  const Eigen::Quaterniond q_b(c.b[6], c.b[3], c.b[4], c.b[5]);
+  return (c.q_z.conjugate() * (q_a.conjugate() * q_b)).w();
+}
+
+}  // namespace
+
 TEST(PoseError3d, JacobiansMatchNumericDifferentiation) {
   std::mt19937 rng(11);
-  std::uniform_real_distribution<double> u(-1.0, 1.0);
-  auto random_block = [&]() {
-    const Eigen::Quaterniond q = Eigen::Quaterniond(u(rng), u(rng), u(rng), u(rng)).normalized();
-    return std::array<double, 7>{u(rng), u(rng), u(rng), q.x(), q.y(), q.z(), q.w()};
-  };
-  for (int trial = 0; trial < 20; ++trial) {
-    const std::array<double, 7> a = random_block(), b = random_block(), zb = random_block();
-    const Eigen::Vector3d p_z(zb[0], zb[1], zb[2]);
-    const Eigen::Quaterniond q_z(zb[6], zb[3], zb[4], zb[5]);
-    const Eigen::Matrix<double, 6, 6> s = sqrtInformation(randomInformation(6, &rng));
-    std::unique_ptr<ceres::CostFunction> analytic(PoseError3d::create(p_z, q_z, s));
-    ceres::NumericDiffCostFunction<PoseError3d, ceres::CENTRAL, 6, 7, 7> numeric(new PoseError3d(p_z, q_z, s));
-    expectSameJacobians(*analytic, numeric, a.data(), b.data(), 6, 7, 1e-6);
+  for (int trial = 0; trial < 60; ++trial) {
+    const Case3d c = randomCase3d(trial, &rng);
+    std::unique_ptr<ceres::CostFunction> analytic(PoseError3d::create(c.p_z, c.q_z, c.s));
+    ceres::NumericDiffCostFunction<PoseError3d, ceres::CENTRAL, 6, 7, 7> numeric(
+        new PoseError3d(c.p_z, c.q_z, c.s));
+    SCOPED_TRACE(trial);
+    expectSameJacobians(*analytic, numeric, c.a.data(), c.b.data(), 6, 7, 1e-5);
+  }
+}
+
+TEST(PoseError3d, AnalyticJacobiansMatchAutomaticDifferentiation) {
+  std::mt19937 rng(13);
+  int flipped = 0, near_pi = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    Case3d c = randomCase3d(trial, &rng);
+    // The ambient Jacobians are those of the expression, off the unit sphere
+    // too: every seventh case scales a's and b's quaternions.
+    if (trial % 7 == 0)
+      for (int i = 3; i < 7; ++i) c.a[i] *= 1.1, c.b[i] *= 0.9;
+    flipped += errorW(c) < 0.0;
+    near_pi += std::abs(errorW(c)) < 1e-2;
+    std::unique_ptr<ceres::CostFunction> analytic(PoseError3d::create(c.p_z, c.q_z, c.s));
+    std::unique_ptr<ceres::CostFunction> automatic(PoseError3d::createAutoDiff(c.p_z, c.q_z, c.s));
+    SCOPED_TRACE(trial);
+    expectSameJacobians(*analytic, *automatic, c.a.data(), c.b.data(), 6, 7, 1e-9);
+    // Residual alone (no Jacobians requested) is the same too.
+    const double* parameters[2] = {c.a.data(), c.b.data()};
+    double r1[6], r2[6];
+    ASSERT_TRUE(analytic->Evaluate(parameters, r1, nullptr));
+    ASSERT_TRUE(automatic->Evaluate(parameters, r2, nullptr));
+    for (int i = 0; i < 6; ++i) EXPECT_NEAR(r1[i], r2[i], 1e-12 * (1.0 + std::abs(r2[i])));
+  }
+  EXPECT_GT(flipped, 50);
+  EXPECT_GT(near_pi, 40);
+}
+
+// Only one Jacobian requested (the solver's anchored factors): the same
+// values as when both are.
+TEST(PoseError3d, SingleJacobianMatchesBoth) {
+  std::mt19937 rng(17);
+  const Case3d c = randomCase3d(1, &rng);
+  std::unique_ptr<ceres::CostFunction> cost(PoseError3d::create(c.p_z, c.q_z, c.s));
+  const double* parameters[2] = {c.a.data(), c.b.data()};
+  double r[6], ja[42], jb[42], ja1[42], jb1[42];
+  double* both[2] = {ja, jb};
+  double* only_a[2] = {ja1, nullptr};
+  double* only_b[2] = {nullptr, jb1};
+  ASSERT_TRUE(cost->Evaluate(parameters, r, both));
+  ASSERT_TRUE(cost->Evaluate(parameters, r, only_a));
+  ASSERT_TRUE(cost->Evaluate(parameters, r, only_b));
+  for (int i = 0; i < 42; ++i) {
+    EXPECT_EQ(ja[i], ja1[i]);
+    EXPECT_EQ(jb[i], jb1[i]);
   }
 }
 
