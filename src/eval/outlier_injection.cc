@@ -8,6 +8,7 @@
 #include <set>
 #include <stdexcept>
 #include <utility>
+#include <vector>
 
 #include "agnc_pgo/core/chi_square.h"
 
@@ -64,6 +65,68 @@ long long candidatePairCount(int num_poses) {
   return n < 3 ? 0 : (n - 1) * (n - 2) / 2;
 }
 
+// Number of pairs (i, j) with 0 <= j, i < N and min <= i - j <= max.
+long long localPairCount(int num_poses, int min_separation, int max_separation) {
+  long long count = 0;
+  for (int d = min_separation; d <= max_separation && d < num_poses; ++d) count += num_poses - d;
+  return count;
+}
+
+// Consecutive rejected groups after which the grouped modes give up.
+constexpr int kMaxFailedGroupDraws = 100000;
+
+// Radius of the shared wrong measurement's translation: the median length of
+// the graph's true loop-closure measurements (1 m when that is 0).
+double typicalLoopLength(const PoseGraph& graph) {
+  std::vector<double> lengths;
+  for (const Edge& edge : graph.edges) {
+    if (edge.kind == EdgeKind::kLoopClosure && !edge.is_outlier) lengths.push_back(edge.measurement.translation.norm());
+  }
+  if (lengths.empty()) return 1.0;
+  std::sort(lengths.begin(), lengths.end());
+  const std::size_t n = lengths.size();
+  const double median = n % 2 ? lengths[n / 2] : 0.5 * (lengths[n / 2 - 1] + lengths[n / 2]);
+  return median > 0.0 ? median : 1.0;
+}
+
+// A random relative pose of a false match: translation uniform in the disc
+// (SE(2)) or ball (SE(3)) of `radius`, heading uniform in [-pi, pi) or
+// rotation uniform on SO(3) (a normalised 4-D Gaussian quaternion).
+Pose randomMeasurement(int dimension, double radius, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  if (dimension == 2) {
+    const double r = radius * std::sqrt(unit(rng));
+    const double direction = 2.0 * M_PI * unit(rng);
+    const double yaw = -M_PI + 2.0 * M_PI * unit(rng);
+    return Pose::fromSE2(r * std::cos(direction), r * std::sin(direction), yaw);
+  }
+  std::normal_distribution<double> gauss(0.0, 1.0);
+  Eigen::Vector3d direction;
+  do {
+    direction = Eigen::Vector3d(gauss(rng), gauss(rng), gauss(rng));
+  } while (direction.norm() < 1e-12);
+  Eigen::Vector4d q;
+  do {
+    q = Eigen::Vector4d(gauss(rng), gauss(rng), gauss(rng), gauss(rng));
+  } while (q.norm() < 1e-12);
+  q.normalize();
+  Pose pose;
+  pose.translation = direction.normalized() * (radius * std::cbrt(unit(rng)));
+  pose.rotation = Eigen::Quaterniond(q(0), q(1), q(2), q(3));
+  return pose;
+}
+
+Edge outlierEdge(int from, int to, const Pose& measurement, const Eigen::MatrixXd& information) {
+  Edge edge;
+  edge.from = from;
+  edge.to = to;
+  edge.measurement = measurement;
+  edge.information = information;
+  edge.kind = EdgeKind::kLoopClosure;
+  edge.is_outlier = true;
+  return edge;
+}
+
 }  // namespace
 
 Eigen::VectorXd defaultOutlierCovariance(const std::string& dataset_name, int dimension) {
@@ -94,8 +157,55 @@ int numOutliersFor(int true_loops, double percent) {
   return static_cast<int>(std::floor(exact + tolerance));
 }
 
+std::string toString(OutlierMode mode) {
+  switch (mode) {
+    case OutlierMode::kRandom: return "random";
+    case OutlierMode::kLocal: return "local";
+    case OutlierMode::kRandomGrouped: return "random-grouped";
+    case OutlierMode::kLocalGrouped: return "local-grouped";
+  }
+  throw std::invalid_argument("toString: unknown OutlierMode " + std::to_string(static_cast<int>(mode)));
+}
+
+OutlierMode parseOutlierMode(const std::string& text) {
+  for (OutlierMode mode :
+       {OutlierMode::kRandom, OutlierMode::kLocal, OutlierMode::kRandomGrouped, OutlierMode::kLocalGrouped}) {
+    if (text == toString(mode)) return mode;
+  }
+  throw std::invalid_argument("outlier mode must be random, local, random-grouped or local-grouped, got '" + text +
+                              "'");
+}
+
+bool isGrouped(OutlierMode mode) {
+  return mode == OutlierMode::kRandomGrouped || mode == OutlierMode::kLocalGrouped;
+}
+
+bool isLocal(OutlierMode mode) { return mode == OutlierMode::kLocal || mode == OutlierMode::kLocalGrouped; }
+
+void validate(const OutlierOptions& options) {
+  if (!(options.percent >= 0.0 && options.percent < 100.0)) {
+    throw std::invalid_argument("OutlierOptions.percent must be in [0, 100), got " + std::to_string(options.percent));
+  }
+  toString(options.mode);  // throws for a value outside the enum
+  if (options.group_size < 1) {
+    throw std::invalid_argument("OutlierOptions.group_size must be at least 1, got " +
+                                std::to_string(options.group_size));
+  }
+  if (options.local_min_separation < 2) {
+    throw std::invalid_argument("OutlierOptions.local_min_separation must be at least 2, got " +
+                                std::to_string(options.local_min_separation));
+  }
+  if (options.local_max_separation < options.local_min_separation) {
+    throw std::invalid_argument("OutlierOptions.local_max_separation (" +
+                                std::to_string(options.local_max_separation) +
+                                ") must be at least local_min_separation (" +
+                                std::to_string(options.local_min_separation) + ")");
+  }
+}
+
 PoseGraph injectOutliers(const PoseGraph& graph, const PoseGraph& reference, const std::string& dataset_name,
                          const OutlierOptions& options) {
+  validate(options);
   if (graph.dimension != 2 && graph.dimension != 3) {
     throw std::invalid_argument("injectOutliers: dimension must be 2 or 3");
   }
@@ -111,53 +221,126 @@ PoseGraph injectOutliers(const PoseGraph& graph, const PoseGraph& reference, con
   if (num_poses < 3) {
     throw std::invalid_argument("injectOutliers: need at least 3 poses to place outliers");
   }
-  const long long total_pairs = candidatePairCount(num_poses);
+  const bool local = isLocal(options.mode);
+  const int min_separation = local ? options.local_min_separation : 2;
+  const int max_separation = local ? options.local_max_separation : num_poses - 1;
+  const long long total_pairs =
+      local ? localPairCount(num_poses, min_separation, max_separation) : candidatePairCount(num_poses);
   if (num_outliers > total_pairs) {
-    throw std::invalid_argument("injectOutliers: " + std::to_string(num_outliers) +
-                                " outliers requested but only " + std::to_string(total_pairs) + " pose pairs");
+    throw std::invalid_argument("injectOutliers: " + std::to_string(num_outliers) + " outliers requested but only " +
+                                std::to_string(total_pairs) + " pose pairs" +
+                                (local ? " at the local separation" : ""));
   }
 
   const Eigen::VectorXd covariance = outlierCovariance(graph, dataset_name, options);
   const Eigen::MatrixXd information = covariance.cwiseInverse().asDiagonal();
   const int dof = graph.tangentDimension();
   const double threshold = chiSquareQuantile(dof, 0.95);
+  // An outlier measurement that the true relative pose explains within the
+  // 95 % gate would be a true loop, not an outlier. The gate compares the
+  // Mahalanobis distance r (not r^2) with the quantile, as the reference
+  // implementations' tests do (ALGORITHM.md §1, §3), so that every injected
+  // outlier is an outlier under the engine's default classification too.
+  auto contradictsTruth = [&](int i, int j, const Pose& measurement) {
+    const Eigen::VectorXd error =
+        relativePoseError(graph.dimension, reference.poses[i], reference.poses[j], measurement);
+    return std::sqrt(error.dot(information * error)) >= threshold;
+  };
 
   std::mt19937_64 rng(options.seed);
-  std::uniform_int_distribution<int> draw_pose(0, num_poses - 1);
-  // Every pair decided so far, accepted or rejected. A rejected pair would be
-  // rejected again, so skipping it does not change which pairs are chosen;
-  // it only makes "every pair tried" detectable instead of looping forever.
-  std::set<std::pair<int, int>> decided;
   int added = 0;
+
+  if (options.mode == OutlierMode::kRandom) {
+    // The draws of riSAM's protocol; kept exactly so that existing seeds give
+    // the same outliers.
+    std::uniform_int_distribution<int> draw_pose(0, num_poses - 1);
+    // Every pair decided so far, accepted or rejected. A rejected pair would be
+    // rejected again, so skipping it does not change which pairs are chosen;
+    // it only makes "every pair tried" detectable instead of looping forever.
+    std::set<std::pair<int, int>> decided;
+    while (added < num_outliers) {
+      const int i = draw_pose(rng);
+      const int j = draw_pose(rng);
+      if (i - j < 2) continue;  // enforces i > j and |i - j| >= 2
+      if (!decided.insert({i, j}).second) {
+        if (static_cast<long long>(decided.size()) == total_pairs) {
+          throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
+                                   std::to_string(num_outliers) + " outliers are inconsistent with the reference");
+        }
+        continue;
+      }
+      if (!contradictsTruth(i, j, Pose::identity())) continue;
+      result.edges.push_back(outlierEdge(i, j, Pose::identity(), information));
+      ++added;
+    }
+    return result;
+  }
+
+  if (options.mode == OutlierMode::kLocal) {
+    // Newer endpoint i in [min, N - 1], separation d in [min, min(max, i)].
+    std::uniform_int_distribution<int> draw_newer(min_separation, num_poses - 1);
+    std::set<std::pair<int, int>> decided;  // as in kRandom
+    while (added < num_outliers) {
+      const int i = draw_newer(rng);
+      std::uniform_int_distribution<int> draw_separation(min_separation, std::min(max_separation, i));
+      const int j = i - draw_separation(rng);
+      if (!decided.insert({i, j}).second) {
+        if (static_cast<long long>(decided.size()) == total_pairs) {
+          throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
+                                   std::to_string(num_outliers) + " local outliers are inconsistent with the reference");
+        }
+        continue;
+      }
+      if (!contradictsTruth(i, j, Pose::identity())) continue;
+      result.edges.push_back(outlierEdge(i, j, Pose::identity(), information));
+      ++added;
+    }
+    return result;
+  }
+
+  // Grouped modes.
+  const double radius = typicalLoopLength(graph);
+  std::set<std::pair<int, int>> used;
+  int failed_draws = 0;
   while (added < num_outliers) {
-    const int i = draw_pose(rng);
-    const int j = draw_pose(rng);
-    if (i - j < 2) continue;  // enforces i > j and |i - j| >= 2
-    if (!decided.insert({i, j}).second) {
-      if (static_cast<long long>(decided.size()) == total_pairs) {
+    const int size = std::min(options.group_size, num_outliers - added);
+    // The group's newest pair is (i + size - 1, j + size - 1): i <= N - size.
+    const int last_start = num_poses - size;
+    if (last_start < min_separation) {
+      throw std::invalid_argument("injectOutliers: " + std::to_string(num_poses) + " poses cannot hold a group of " +
+                                  std::to_string(size) + " outliers " + std::to_string(min_separation) +
+                                  " or more poses apart");
+    }
+    int i = 0, j = 0;
+    if (local) {
+      std::uniform_int_distribution<int> draw_newer(min_separation, last_start);
+      i = draw_newer(rng);
+      std::uniform_int_distribution<int> draw_separation(min_separation, std::min(max_separation, i));
+      j = i - draw_separation(rng);
+    } else {
+      std::uniform_int_distribution<int> draw_pose(0, last_start);
+      i = draw_pose(rng);
+      j = draw_pose(rng);
+    }
+    const Pose measurement = randomMeasurement(graph.dimension, radius, rng);
+    bool accepted = i - j >= 2;
+    for (int k = 0; accepted && k < size; ++k) {
+      accepted = !used.count({i + k, j + k}) && contradictsTruth(i + k, j + k, measurement);
+    }
+    if (!accepted) {
+      if (++failed_draws == kMaxFailedGroupDraws) {
         throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
-                                 std::to_string(num_outliers) + " outliers are inconsistent with the reference");
+                                 std::to_string(num_outliers) + " grouped outliers placed; " +
+                                 std::to_string(kMaxFailedGroupDraws) + " draws of the next group in a row failed");
       }
       continue;
     }
-    // An identity measurement that the true relative pose explains within the
-    // 95 % gate would be a true loop, not an outlier. The gate compares the
-    // Mahalanobis distance r (not r^2) with the quantile, as the reference
-    // implementations' tests do (ALGORITHM.md §1, §3), so that every injected
-    // outlier is an outlier under the engine's default classification too.
-    const Eigen::VectorXd error =
-        relativePoseError(graph.dimension, reference.poses[i], reference.poses[j], Pose::identity());
-    if (std::sqrt(error.dot(information * error)) < threshold) continue;
-
-    Edge edge;
-    edge.from = i;
-    edge.to = j;
-    edge.measurement = Pose::identity();
-    edge.information = information;
-    edge.kind = EdgeKind::kLoopClosure;
-    edge.is_outlier = true;
-    result.edges.push_back(edge);
-    ++added;
+    failed_draws = 0;
+    for (int k = 0; k < size; ++k) {
+      used.insert({i + k, j + k});
+      result.edges.push_back(outlierEdge(i + k, j + k, measurement, information));
+    }
+    added += size;
   }
   return result;
 }

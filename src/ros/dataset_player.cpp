@@ -13,14 +13,16 @@
 namespace agnc_pgo {
 namespace ros_backend {
 
-PlayerDataset loadPlayerDataset(const std::string& path, double outlier_percent, unsigned long seed) {
+PlayerDataset loadPlayerDataset(const std::string& path, double outlier_percent, unsigned long seed,
+                                core::OutlierMode outlier_mode, int group_size) {
   namespace fs = std::filesystem;
   if (!fs::exists(path)) throw std::runtime_error("dataset " + path + " does not exist");
   if (outlier_percent < 0 || outlier_percent >= 100) throw std::invalid_argument("outliers must be in [0, 100)");
+  if (group_size < 1) throw std::invalid_argument("group_size must be at least 1, got " + std::to_string(group_size));
   const std::string stem = fs::path(path).stem().string();
   core::IncrementalLog log;
   if (fs::path(path).extension() == ".irl") {
-    if (outlier_percent > 0)
+    if (outlier_percent > 0 || outlier_mode != core::OutlierMode::kRandom)
       throw std::invalid_argument("outlier injection does not apply to .irl logs (their outliers are labelled)");
     log = core::readIrl(path);
   } else {
@@ -32,6 +34,8 @@ PlayerDataset loadPlayerDataset(const std::string& path, double outlier_percent,
       core::OutlierOptions options;
       options.percent = outlier_percent;
       options.seed = seed;
+      options.mode = outlier_mode;
+      options.group_size = group_size;
       graph = core::injectOutliers(graph, reference, stem, options);
     }
     log = core::logFromGraph(graph, stem);

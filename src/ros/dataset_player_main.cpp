@@ -42,6 +42,8 @@ int main(int argc, char** argv) {
   std::string dataset, frame = "odom", child = "base_link";
   double outliers = 0.0, rate = 200.0, start_delay = 1.0, subscriber_timeout = 15.0;
   int seed = 1;
+  std::string outlier_mode = "random";
+  int group_size = agnc_pgo::core::kDefaultGroupSize;
   bool wait_for_subscribers = true;
   if (!pnh.getParam("dataset", dataset)) {
     ROS_FATAL("dataset_player: ~dataset (a .g2o or .irl file) is required");
@@ -49,6 +51,8 @@ int main(int argc, char** argv) {
   }
   pnh.getParam("outliers", outliers);
   pnh.getParam("seed", seed);
+  pnh.getParam("outlier_mode", outlier_mode);
+  pnh.getParam("group_size", group_size);
   pnh.getParam("rate", rate);
   pnh.getParam("frame_id", frame);
   pnh.getParam("child_frame_id", child);
@@ -62,7 +66,8 @@ int main(int argc, char** argv) {
 
   PlayerDataset data;
   try {
-    data = loadPlayerDataset(dataset, outliers, static_cast<unsigned long>(seed));
+    data = loadPlayerDataset(dataset, outliers, static_cast<unsigned long>(seed),
+                             agnc_pgo::core::parseOutlierMode(outlier_mode), group_size);
   } catch (const std::exception& e) {
     ROS_FATAL_STREAM("dataset_player: " << e.what());
     return 1;

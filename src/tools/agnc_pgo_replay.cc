@@ -30,6 +30,7 @@ using namespace agnc_pgo::core;
 
 const char* kUsage =
     "usage: agnc_pgo_replay --input FILE.g2o|FILE.irl [--outliers PERCENT] [--seed N]\n"
+    "                       [--outlier-mode random|local|random-grouped|local-grouped] [--group-size N]\n"
     "                       [--schedule agnc|agnc-fixed|risam|none] [--ground-truth GT.g2o]\n"
     "                       [--output DIR] [--quiet]\n"
     "                       [--distance reference|squared] [--classification weight|distance]\n"
@@ -42,6 +43,9 @@ struct Arguments {
   std::string input, ground_truth, output;
   double outliers = -1;  // < 0: not given
   unsigned long seed = 1;
+  OutlierMode outlier_mode = OutlierMode::kRandom;
+  int group_size = kDefaultGroupSize;
+  bool group_size_given = false;
   bool quiet = false;
   GncOptions gnc;
 };
@@ -77,6 +81,14 @@ double parsePercent(const std::string& flag, const std::string& text) {
   return v;
 }
 
+OutlierMode parseOutlierModeFlag(const std::string& flag, const std::string& text) {
+  try {
+    return parseOutlierMode(text);
+  } catch (const std::invalid_argument&) {
+    throw std::invalid_argument(flag + " expects random, local, random-grouped or local-grouped, got '" + text + "'");
+  }
+}
+
 Arguments parseArguments(int argc, char** argv) {
   Arguments a;
   for (int i = 1; i < argc; ++i) {
@@ -88,6 +100,11 @@ Arguments parseArguments(int argc, char** argv) {
     if (flag == "--input") a.input = value();
     else if (flag == "--outliers") a.outliers = parsePercent(flag, value());
     else if (flag == "--seed") a.seed = static_cast<unsigned long>(parseCount(flag, value(), ULONG_MAX));
+    else if (flag == "--outlier-mode") a.outlier_mode = parseOutlierModeFlag(flag, value());
+    else if (flag == "--group-size") {
+      a.group_size = parseInt(flag, value());
+      a.group_size_given = true;
+    }
     else if (flag == "--schedule") a.gnc.schedule.kind = parseSchedule(value());
     else if (flag == "--ground-truth") a.ground_truth = value();
     else if (flag == "--output") a.output = value();
@@ -115,6 +132,10 @@ Arguments parseArguments(int argc, char** argv) {
   }
   if (a.input.empty()) throw std::invalid_argument("--input is required");
   if (a.outliers >= 100.0) throw std::invalid_argument("--outliers must be in [0, 100)");
+  if (a.group_size_given && a.group_size < 1)
+    throw std::invalid_argument("--group-size must be at least 1, got " + std::to_string(a.group_size));
+  if (a.group_size_given && !isGrouped(a.outlier_mode))
+    throw std::invalid_argument("--group-size applies only to --outlier-mode random-grouped or local-grouped");
   validate(a.gnc);
   return a;
 }
@@ -130,6 +151,8 @@ IncrementalLog loadLog(const Arguments& a) {
   if (endsWith(a.input, ".irl")) {
     if (a.outliers > 0)
       throw std::invalid_argument("--outliers does not apply to .irl logs (their outliers are labelled in the file)");
+    if (a.outlier_mode != OutlierMode::kRandom || a.group_size_given)
+      throw std::invalid_argument("--outlier-mode and --group-size do not apply to .irl logs");
     return readIrl(a.input);
   }
   PoseGraph graph = readG2o(a.input);
@@ -145,6 +168,8 @@ IncrementalLog loadLog(const Arguments& a) {
     OutlierOptions options;
     options.percent = percent;
     options.seed = a.seed;
+    options.mode = a.outlier_mode;
+    options.group_size = a.group_size;
     graph = injectOutliers(graph, reference, stem(a.input), options);
   }
   return logFromGraph(graph, stem(a.input));
@@ -223,6 +248,9 @@ int main(int argc, char** argv) {
          << "  \"outliers\": " << log.numOutliers() << ",\n"
          << "  \"outlier_percent\": " << jsonNumber(args.outliers < 0 ? NAN : args.outliers) << ",\n"
          << "  \"seed\": " << args.seed << ",\n"
+         << "  \"outlier_mode\": \"" << toString(args.outlier_mode) << "\",\n"
+         << "  \"group_size\": " << (isGrouped(args.outlier_mode) ? std::to_string(args.group_size) : "null")
+         << ",\n"
          << "  \"schedule\": \"" << toString(args.gnc.schedule.kind) << "\",\n"
          << "  \"distance\": \"" << toString(args.gnc.schedule.distance) << "\",\n"
          << "  \"classification\": \"" << toString(args.gnc.schedule.classification) << "\",\n"

@@ -1,7 +1,9 @@
 // Tests for riSAM-style outlier injection (ALGORITHM.md §5).
 #include "agnc_pgo/eval/outlier_injection.h"
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <limits>
 #include <set>
@@ -35,16 +37,12 @@ Pose planarPose(double x, double y, double yaw) {
   return pose;
 }
 
-// Mahalanobis distance r = sqrt(e^T Omega e) (not r^2) of the pose of j in
-// i's frame from the identity, computed here from the pose data. SE(2) error:
-// the Pose2 Logmap [rho, theta], rho = V(theta)^-1 t, written in the
-// half-angle form V^-1 = (theta / 2) [[cot(theta / 2), 1], [-1, cot(theta / 2)]].
-// SE(3) error: (t, 2 vec(q)) with q taken in the w >= 0 hemisphere.
-double distanceToIdentity(const PoseGraph& reference, int i, int j, const Eigen::VectorXd& covariance) {
-  const Pose& a = reference.poses[i];
-  const Pose& b = reference.poses[j];
-  const Eigen::Quaterniond q = a.rotation.conjugate() * b.rotation;
-  const Eigen::Vector3d t = a.rotation.conjugate() * (b.translation - a.translation);
+// Mahalanobis distance r = sqrt(e^T Omega e) (not r^2) of the relative pose
+// (q, t) from the identity. SE(2) error: the Pose2 Logmap [rho, theta], rho =
+// V(theta)^-1 t, written in the half-angle form V^-1 = (theta / 2)
+// [[cot(theta / 2), 1], [-1, cot(theta / 2)]]. SE(3) error: (t, 2 vec(q))
+// with q taken in the w >= 0 hemisphere.
+double distanceOfRelative(const Eigen::Quaterniond& q, const Eigen::Vector3d& t, const Eigen::VectorXd& covariance) {
   Eigen::VectorXd error(covariance.size());
   if (covariance.size() == 3) {
     const Eigen::Matrix3d R = q.toRotationMatrix();
@@ -61,6 +59,28 @@ double distanceToIdentity(const PoseGraph& reference, int i, int j, const Eigen:
     error << t, 2.0 * sign * q.vec();
   }
   return std::sqrt((error.array().square() / covariance.array()).sum());
+}
+
+// r of the pose of j in i's frame from the identity, computed here from the
+// pose data.
+double distanceToIdentity(const PoseGraph& reference, int i, int j, const Eigen::VectorXd& covariance) {
+  const Pose& a = reference.poses[i];
+  const Pose& b = reference.poses[j];
+  const Eigen::Quaterniond q = a.rotation.conjugate() * b.rotation;
+  const Eigen::Vector3d t = a.rotation.conjugate() * (b.translation - a.translation);
+  return distanceOfRelative(q, t, covariance);
+}
+
+// r of the pose of j in i's frame from a measurement z: the error z^-1 T_ij.
+double distanceToMeasurement(const PoseGraph& reference, int i, int j, const Pose& z,
+                             const Eigen::VectorXd& covariance) {
+  const Pose& a = reference.poses[i];
+  const Pose& b = reference.poses[j];
+  const Eigen::Quaterniond q_ij = a.rotation.conjugate() * b.rotation;
+  const Eigen::Vector3d t_ij = a.rotation.conjugate() * (b.translation - a.translation);
+  const Eigen::Quaterniond q = z.rotation.conjugate() * q_ij;
+  const Eigen::Vector3d t = z.rotation.conjugate() * (t_ij - z.translation);
+  return distanceOfRelative(q, t, covariance);
 }
 
 // Spacing of the revisited spots. Under CSAIL's noise (sigma_x^2 = 0.015) two
@@ -457,6 +477,312 @@ TEST(InjectOutliers, ThrowsInsteadOfLoopingWhenEveryPairIsConsistent) {
   OutlierOptions options;
   options.percent = 50.0;
   EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::runtime_error);
+}
+
+// ------------------------------------------- injectOutliers (random, fixed)
+
+// The first outliers of kRandom, recorded from the implementation before the
+// other modes existed: the mode must keep drawing exactly these pairs.
+TEST(InjectOutliersModes, RandomModeUnchanged) {
+  {
+    const PoseGraph graph = revisitingPlanarGraph(100, 40);
+    OutlierOptions options;
+    options.percent = 30.0;
+    options.seed = 123;
+    const std::vector<std::pair<int, int>> expected = {
+        {81, 48}, {71, 28}, {69, 2}, {79, 62}, {81, 68}, {19, 11}, {47, 10}, {99, 0}, {49, 12},
+        {48, 30}, {59, 11}, {69, 12}, {91, 69}, {59, 40}, {47, 30}, {68, 30}, {59, 1}};
+    EXPECT_EQ(injectedPairs(graph, injectOutliers(graph, graph, "csail", options)), expected);
+    // The group size does not matter outside the grouped modes.
+    options.group_size = 3;
+    EXPECT_EQ(injectedPairs(graph, injectOutliers(graph, graph, "csail", options)), expected);
+  }
+  {
+    const PoseGraph graph = helixGraph(80, 40);
+    OutlierOptions options;
+    options.percent = 30.0;
+    options.seed = 3;
+    const std::vector<std::pair<int, int>> expected = {
+        {44, 15}, {47, 27}, {44, 28}, {58, 33}, {56, 13}, {20, 1}, {78, 39}, {30, 17}, {65, 20},
+        {52, 43}, {59, 7}, {71, 34}, {77, 51}, {74, 48}, {36, 8}, {76, 71}, {61, 14}};
+    EXPECT_EQ(injectedPairs(graph, injectOutliers(graph, graph, "sphere2500", options)), expected);
+  }
+}
+
+// ------------------------------------------------ injectOutliers (modes)
+
+TEST(OutlierModeNames, RoundTripAndRejectUnknown) {
+  for (OutlierMode mode :
+       {OutlierMode::kRandom, OutlierMode::kLocal, OutlierMode::kRandomGrouped, OutlierMode::kLocalGrouped}) {
+    EXPECT_EQ(parseOutlierMode(toString(mode)), mode);
+  }
+  EXPECT_EQ(toString(OutlierMode::kLocalGrouped), "local-grouped");
+  EXPECT_FALSE(isGrouped(OutlierMode::kLocal));
+  EXPECT_TRUE(isGrouped(OutlierMode::kRandomGrouped));
+  EXPECT_TRUE(isLocal(OutlierMode::kLocalGrouped));
+  EXPECT_FALSE(isLocal(OutlierMode::kRandomGrouped));
+  for (const char* bad : {"grouped", "Random", "", "local_grouped"}) {
+    try {
+      parseOutlierMode(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("random, local, random-grouped or local-grouped"), std::string::npos);
+    }
+  }
+}
+
+void expectInvalidField(const OutlierOptions& options, const std::string& field) {
+  const PoseGraph graph = revisitingPlanarGraph(100, 40);
+  try {
+    injectOutliers(graph, graph, "csail", options);
+    ADD_FAILURE() << "accepted invalid " << field;
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find(field), std::string::npos) << e.what();
+  }
+}
+
+TEST(InjectOutliersModes, ValidatesOptions) {
+  OutlierOptions options;
+  options.mode = OutlierMode::kRandomGrouped;
+  options.group_size = 0;
+  expectInvalidField(options, "group_size");
+  options.group_size = -3;
+  expectInvalidField(options, "group_size");
+  options = OutlierOptions();
+  options.mode = OutlierMode::kLocal;
+  options.local_min_separation = 1;
+  expectInvalidField(options, "local_min_separation");
+  options.local_min_separation = 30;
+  options.local_max_separation = 29;
+  expectInvalidField(options, "local_max_separation");
+  options = OutlierOptions();
+  options.percent = 100.0;
+  expectInvalidField(options, "percent");
+  options = OutlierOptions();
+  options.mode = static_cast<OutlierMode>(17);
+  EXPECT_THROW(validate(options), std::invalid_argument);
+  EXPECT_NO_THROW(validate(OutlierOptions()));
+  EXPECT_EQ(OutlierOptions().mode, OutlierMode::kRandom);
+  EXPECT_EQ(OutlierOptions().group_size, 10);
+  EXPECT_EQ(OutlierOptions().local_min_separation, 20);
+  EXPECT_EQ(OutlierOptions().local_max_separation, 50);
+}
+
+// Median length of the true loop closures' measurements, 1 m if that is 0
+// (the radius of the grouped modes' shared measurement).
+double medianLoopLength(const PoseGraph& graph) {
+  std::vector<double> lengths;
+  for (const Edge& edge : graph.edges) {
+    if (edge.kind == EdgeKind::kLoopClosure && !edge.is_outlier) lengths.push_back(edge.measurement.translation.norm());
+  }
+  std::sort(lengths.begin(), lengths.end());
+  const std::size_t n = lengths.size();
+  const double median = n % 2 ? lengths[n / 2] : 0.5 * (lengths[n / 2 - 1] + lengths[n / 2]);
+  return median > 0.0 ? median : 1.0;
+}
+
+bool samePose(const Pose& a, const Pose& b) {
+  return a.translation == b.translation && a.rotation.coeffs() == b.rotation.coeffs();
+}
+
+// Checks the geometry of `mode` on an injected graph: the count, |i - j|,
+// groups (consecutive pairs, one shared measurement, of group_size except
+// the last), the gate against the reference, no pair twice; returns the
+// groups' first pairs.
+std::vector<std::pair<int, int>> expectModeGeometry(const PoseGraph& original, const PoseGraph& reference,
+                                                    const PoseGraph& result, const OutlierOptions& options,
+                                                    const Eigen::VectorXd& covariance) {
+  const int expected = numOutliersFor(static_cast<int>(std::count_if(original.edges.begin(), original.edges.end(),
+                                                                     [](const Edge& e) {
+                                                                       return e.kind == EdgeKind::kLoopClosure &&
+                                                                              !e.is_outlier;
+                                                                     })),
+                                      options.percent);
+  EXPECT_EQ(result.edges.size(), original.edges.size() + expected);
+  for (std::size_t k = 0; k < original.edges.size(); ++k) {
+    EXPECT_TRUE(sameEdge(result.edges[k], original.edges[k])) << "original edge " << k << " changed";
+  }
+  const int n = static_cast<int>(original.poses.size());
+  const int dof = original.dimension == 2 ? 3 : 6;
+  const double threshold = dof == 3 ? kChi2Q95Dof3 : kChi2Q95Dof6;
+  const Eigen::MatrixXd information = covariance.cwiseInverse().asDiagonal();
+  const bool grouped = isGrouped(options.mode);
+  const int group = grouped ? options.group_size : 1;
+  const double radius = grouped ? medianLoopLength(original) : 0.0;
+  std::set<std::pair<int, int>> seen;
+  std::vector<std::pair<int, int>> starts;
+  const std::size_t first = original.edges.size();
+  for (std::size_t k = first; k < result.edges.size(); ++k) {
+    const Edge& edge = result.edges[k];
+    const std::size_t member = (k - first) % group;
+    EXPECT_TRUE(edge.is_outlier);
+    EXPECT_EQ(edge.kind, EdgeKind::kLoopClosure);
+    EXPECT_GE(edge.to, 0);
+    EXPECT_LT(edge.from, n);
+    const int separation = edge.from - edge.to;
+    if (isLocal(options.mode)) {
+      EXPECT_GE(separation, options.local_min_separation) << edge.from << "," << edge.to;
+      EXPECT_LE(separation, options.local_max_separation) << edge.from << "," << edge.to;
+    } else {
+      EXPECT_GE(separation, 2) << edge.from << "," << edge.to;
+    }
+    EXPECT_TRUE(edge.information.isApprox(information, 1e-12));
+    EXPECT_TRUE(seen.insert({edge.from, edge.to}).second) << "duplicate pair " << edge.from << "," << edge.to;
+    EXPECT_GE(distanceToMeasurement(reference, edge.from, edge.to, edge.measurement, covariance), threshold)
+        << "pair " << edge.from << "," << edge.to << " is consistent with its measurement";
+    if (!grouped) {
+      EXPECT_TRUE(samePose(edge.measurement, Pose::identity()));
+      starts.emplace_back(edge.from, edge.to);
+      continue;
+    }
+    EXPECT_FALSE(samePose(edge.measurement, Pose::identity()));
+    EXPECT_LE(edge.measurement.translation.norm(), radius * (1 + 1e-12));
+    EXPECT_NEAR(edge.measurement.rotation.norm(), 1.0, 1e-12);
+    if (original.dimension == 2) {
+      EXPECT_EQ(edge.measurement.translation.z(), 0.0);
+      EXPECT_NEAR(edge.measurement.rotation.x(), 0.0, 1e-15);
+      EXPECT_NEAR(edge.measurement.rotation.y(), 0.0, 1e-15);
+    }
+    if (member == 0) {
+      starts.emplace_back(edge.from, edge.to);
+    } else {
+      // A member of the group begun at `first + k - member`: the next pair, the same measurement.
+      const Edge& previous = result.edges[k - 1];
+      EXPECT_EQ(edge.from, previous.from + 1);
+      EXPECT_EQ(edge.to, previous.to + 1);
+      EXPECT_TRUE(samePose(edge.measurement, previous.measurement)) << "group member " << member << " at " << k;
+    }
+  }
+  return starts;
+}
+
+OutlierOptions modeOptions(OutlierMode mode, double percent, std::uint64_t seed) {
+  OutlierOptions options;
+  options.mode = mode;
+  options.percent = percent;
+  options.seed = seed;
+  return options;
+}
+
+TEST(InjectOutliersModes, LocalStaysWithinRange) {
+  const PoseGraph graph = revisitingPlanarGraph(200, 60);
+  const Eigen::VectorXd covariance = defaultOutlierCovariance("csail", 2);
+  const OutlierOptions options = modeOptions(OutlierMode::kLocal, 30.0, 5);
+  const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+  const auto pairs = expectModeGeometry(graph, graph, result, options, covariance);
+  EXPECT_EQ(pairs.size(), 25u);  // floor(30 * 60 / 70)
+  // Both ends of the range are reachable: a narrow range is honoured exactly.
+  OutlierOptions narrow = options;
+  narrow.local_min_separation = 27;
+  narrow.local_max_separation = 28;
+  const PoseGraph narrowed = injectOutliers(graph, graph, "csail", narrow);
+  std::set<int> separations;
+  for (const auto& pair : expectModeGeometry(graph, graph, narrowed, narrow, covariance)) {
+    separations.insert(pair.first - pair.second);
+  }
+  EXPECT_EQ(separations, (std::set<int>{27, 28}));
+}
+
+TEST(InjectOutliersModes, LocalSpatial) {
+  const PoseGraph graph = helixGraph(150, 60);
+  const OutlierOptions options = modeOptions(OutlierMode::kLocal, 30.0, 8);
+  const PoseGraph result = injectOutliers(graph, graph, "sphere2500", options);
+  EXPECT_EQ(expectModeGeometry(graph, graph, result, options, defaultOutlierCovariance("sphere", 3)).size(), 25u);
+}
+
+TEST(InjectOutliersModes, LocalNeedsEnoughPoses) {
+  // 20 poses have no pair 20 or more apart.
+  const PoseGraph graph = revisitingPlanarGraph(20, 10);
+  for (OutlierMode mode : {OutlierMode::kLocal, OutlierMode::kLocalGrouped}) {
+    EXPECT_THROW(injectOutliers(graph, graph, "csail", modeOptions(mode, 50.0, 1)), std::invalid_argument);
+  }
+}
+
+TEST(InjectOutliersModes, RandomGroupedShareOneMeasurement) {
+  const PoseGraph graph = revisitingPlanarGraph(300, 80);
+  const OutlierOptions options = modeOptions(OutlierMode::kRandomGrouped, 30.0, 11);
+  const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+  // floor(30 * 80 / 70) = 34 outliers: three groups of 10 and one of 4.
+  const auto starts = expectModeGeometry(graph, graph, result, options, defaultOutlierCovariance("csail", 2));
+  EXPECT_EQ(starts.size(), 4u);
+  // Groups draw their own measurements.
+  const std::size_t first = graph.edges.size();
+  EXPECT_FALSE(samePose(result.edges[first].measurement, result.edges[first + 10].measurement));
+}
+
+TEST(InjectOutliersModes, LocalGroupedShareOneMeasurementWithinRange) {
+  const PoseGraph graph = revisitingPlanarGraph(300, 80);
+  OutlierOptions options = modeOptions(OutlierMode::kLocalGrouped, 30.0, 12);
+  const PoseGraph result = injectOutliers(graph, graph, "csail", options);
+  EXPECT_EQ(expectModeGeometry(graph, graph, result, options, defaultOutlierCovariance("csail", 2)).size(), 4u);
+  // Other group sizes: 7 -> 4 groups of 7 and one of 6; 1 -> 34 single outliers; 50 -> one group of 34.
+  for (const auto& [size, groups] : std::vector<std::pair<int, std::size_t>>{{7, 5}, {1, 34}, {50, 1}}) {
+    options.group_size = size;
+    const PoseGraph sized = injectOutliers(graph, graph, "csail", options);
+    EXPECT_EQ(expectModeGeometry(graph, graph, sized, options, defaultOutlierCovariance("csail", 2)).size(), groups)
+        << "group size " << size;
+  }
+}
+
+TEST(InjectOutliersModes, GroupedSpatial) {
+  const PoseGraph graph = helixGraph(200, 60);
+  for (OutlierMode mode : {OutlierMode::kRandomGrouped, OutlierMode::kLocalGrouped}) {
+    const OutlierOptions options = modeOptions(mode, 30.0, 13);
+    const PoseGraph result = injectOutliers(graph, graph, "sphere2500", options);
+    // helixGraph's loop measurements are identities: the radius falls back to 1 m.
+    EXPECT_EQ(expectModeGeometry(graph, graph, result, options, defaultOutlierCovariance("sphere", 3)).size(), 3u)
+        << toString(mode);
+    for (std::size_t k = graph.edges.size(); k < result.edges.size(); ++k) {
+      EXPECT_LE(result.edges[k].measurement.translation.norm(), 1.0);
+    }
+  }
+}
+
+TEST(InjectOutliersModes, GroupedGateUsesReference) {
+  // Graph poses all identical, reference spread out: the members are gated
+  // against the reference.
+  PoseGraph graph = revisitingPlanarGraph(300, 60);
+  const PoseGraph reference = graph;
+  for (Pose& pose : graph.poses) pose = Pose();
+  const OutlierOptions options = modeOptions(OutlierMode::kLocalGrouped, 50.0, 14);
+  const PoseGraph result = injectOutliers(graph, reference, "csail", options);
+  EXPECT_EQ(expectModeGeometry(graph, reference, result, options, defaultOutlierCovariance("csail", 2)).size(), 6u);
+}
+
+TEST(InjectOutliersModes, GroupedThrowsWhenTruthExplainsEverything) {
+  // Every pose pair is the identity and the covariance is wide enough for any
+  // measurement within the radius and any heading: no group can be placed.
+  PoseGraph graph = revisitingPlanarGraph(40, 10);
+  for (Pose& pose : graph.poses) pose = Pose();
+  OutlierOptions options = modeOptions(OutlierMode::kRandomGrouped, 50.0, 1);
+  options.covariance_diagonal = Eigen::Vector3d(1e4, 1e4, 1e4);
+  EXPECT_THROW(injectOutliers(graph, graph, "csail", options), std::runtime_error);
+}
+
+TEST(InjectOutliersModes, DeterministicPerSeed) {
+  const PoseGraph graph = revisitingPlanarGraph(300, 80);
+  for (OutlierMode mode :
+       {OutlierMode::kRandom, OutlierMode::kLocal, OutlierMode::kRandomGrouped, OutlierMode::kLocalGrouped}) {
+    OutlierOptions options = modeOptions(mode, 30.0, 21);
+    const PoseGraph a = injectOutliers(graph, graph, "csail", options);
+    const PoseGraph b = injectOutliers(graph, graph, "csail", options);
+    ASSERT_EQ(a.edges.size(), b.edges.size());
+    for (std::size_t k = 0; k < a.edges.size(); ++k) EXPECT_TRUE(sameEdge(a.edges[k], b.edges[k])) << toString(mode);
+    options.seed = 22;
+    const PoseGraph c = injectOutliers(graph, graph, "csail", options);
+    ASSERT_EQ(c.edges.size(), a.edges.size());
+    EXPECT_NE(injectedPairs(graph, a), injectedPairs(graph, c)) << toString(mode);
+  }
+}
+
+TEST(InjectOutliersModes, ModesDiffer) {
+  const PoseGraph graph = revisitingPlanarGraph(300, 80);
+  std::set<std::vector<std::pair<int, int>>> placements;
+  for (OutlierMode mode :
+       {OutlierMode::kRandom, OutlierMode::kLocal, OutlierMode::kRandomGrouped, OutlierMode::kLocalGrouped}) {
+    placements.insert(injectedPairs(graph, injectOutliers(graph, graph, "csail", modeOptions(mode, 30.0, 1))));
+  }
+  EXPECT_EQ(placements.size(), 4u);
 }
 
 // ------------------------------------------------ injectOutliers (datasets)

@@ -9,6 +9,7 @@
 #include <Eigen/Core>
 
 #include "agnc_pgo/core/pose_graph.h"
+#include "agnc_pgo/eval/outlier_injection.h"
 
 namespace agnc_pgo {
 namespace ros_backend {
@@ -29,10 +30,13 @@ struct PlayerDataset {
   std::vector<PlayerEntry, Eigen::aligned_allocator<PlayerEntry>> entries;
 };
 
-// Reads FILE.g2o (injecting `outlier_percent` % outliers with `seed`, like
-// agnc_pgo_replay) or FILE.irl (labelled outliers; outlier_percent must be 0)
-// and orders it with core::logFromGraph. Throws on errors.
-PlayerDataset loadPlayerDataset(const std::string& path, double outlier_percent, unsigned long seed);
+// Reads FILE.g2o (injecting `outlier_percent` % outliers with `seed`, placed
+// as `outlier_mode` with `group_size` pairs per group, like agnc_pgo_replay)
+// or FILE.irl (labelled outliers; outlier_percent must be 0 and the mode
+// random) and orders it with core::logFromGraph. Throws on errors.
+PlayerDataset loadPlayerDataset(const std::string& path, double outlier_percent, unsigned long seed,
+                                core::OutlierMode outlier_mode = core::OutlierMode::kRandom,
+                                int group_size = core::kDefaultGroupSize);
 
 }  // namespace ros_backend
 }  // namespace agnc_pgo
