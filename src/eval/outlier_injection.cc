@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/chi_square.h"
 
 namespace agnc_pgo {
@@ -343,6 +344,13 @@ PoseGraph injectOutliers(const PoseGraph& graph, const PoseGraph& reference, con
     added += size;
   }
   return result;
+}
+
+PoseGraph injectOutliersAgainstOptimum(const PoseGraph& graph, const std::string& dataset_name,
+                                       const OutlierOptions& options) {
+  PoseGraph reference = graph;
+  optimizeBatchGlobal(&reference);
+  return injectOutliers(graph, reference, dataset_name, options);
 }
 
 }  // namespace core

@@ -3,7 +3,6 @@
 #include <filesystem>
 #include <stdexcept>
 
-#include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
 #include "agnc_pgo/eval/incremental_log.h"
 #include "agnc_pgo/eval/irl_io.h"
@@ -28,15 +27,12 @@ PlayerDataset loadPlayerDataset(const std::string& path, double outlier_percent,
   } else {
     core::PoseGraph graph = core::readG2o(path);
     if (outlier_percent > 0) {
-      // Outliers must contradict the true geometry: the outlier-free optimum.
-      core::PoseGraph reference = graph;
-      core::optimizeBatch(&reference);
       core::OutlierOptions options;
       options.percent = outlier_percent;
       options.seed = seed;
       options.mode = outlier_mode;
       options.group_size = group_size;
-      graph = core::injectOutliers(graph, reference, stem, options);
+      graph = core::injectOutliersAgainstOptimum(graph, stem, options);
     }
     log = core::logFromGraph(graph, stem);
   }

@@ -158,19 +158,12 @@ IncrementalLog loadLog(const Arguments& a) {
   PoseGraph graph = readG2o(a.input);
   const double percent = a.outliers < 0 ? 0.0 : a.outliers;
   if (percent > 0) {
-    // Outliers must be inconsistent with the geometry the data supports: the
-    // outlier-free optimum. (Ground truth can differ from it by metres --
-    // ring, M3500, Sphere2500 -- which would let "outliers" through that the
-    // data itself cannot tell from true loops.) Started globally: from the
-    // odometry alone least squares can end in a local minimum (M3500b).
-    PoseGraph reference = graph;
-    optimizeBatchGlobal(&reference);
     OutlierOptions options;
     options.percent = percent;
     options.seed = a.seed;
     options.mode = a.outlier_mode;
     options.group_size = a.group_size;
-    graph = injectOutliers(graph, reference, stem(a.input), options);
+    graph = injectOutliersAgainstOptimum(graph, stem(a.input), options);
   }
   return logFromGraph(graph, stem(a.input));
 }

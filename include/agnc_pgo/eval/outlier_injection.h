@@ -102,5 +102,15 @@ void validate(const OutlierOptions& options);
 PoseGraph injectOutliers(const PoseGraph& graph, const PoseGraph& reference,
                          const std::string& dataset_name, const OutlierOptions& options);
 
+// injectOutliers gated against the outlier-free optimum of `graph` itself:
+// the geometry the data supports (a ground truth can differ from it by
+// metres -- ring, M3500, Sphere2500 -- and let through "outliers" the data
+// cannot tell from true loop closures). Started globally
+// (optimizeBatchGlobal): from the odometry alone least squares can end in a
+// local minimum (M3500b). What agnc_pgo_replay and the dataset player inject,
+// so both give the same loop closures for the same options.
+PoseGraph injectOutliersAgainstOptimum(const PoseGraph& graph, const std::string& dataset_name,
+                                       const OutlierOptions& options);
+
 }  // namespace core
 }  // namespace agnc_pgo
