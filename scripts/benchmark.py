@@ -1020,7 +1020,7 @@ def modes_section(results):
 
     for r in sorted(results, key=key):
         c = r.cell
-        mode = "–" if c.outliers == 0 else c.outlier_mode or "random"
+        mode = DASH if c.outliers == 0 else c.outlier_mode or "random"
         head = [c.dataset, mode, fmt(c.outliers, 0) + " %", c.schedule,
                 DASH if c.seed is None else str(c.seed)]
         if not r.ok:
