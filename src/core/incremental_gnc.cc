@@ -204,9 +204,9 @@ UpdateStats IncrementalGnc::update() {
   // and land in another pass if it now explains them.
   for (bool first = true; !pending_.empty() || !needs_restart_.empty(); first = false) {
     UpdateStats pass;
-    const std::vector<int> explained = updatePass(&pass);
+    std::vector<int> next = updatePass(&pass);
     stats = first ? pass : combined(stats, pass);
-    pending_ = explainedAfterLanding(explained);
+    pending_ = std::move(next);
   }
   return stats;
 }
@@ -218,20 +218,77 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats) {
   UpdatePlan plan = judgeArrivals();
   planWindow(&plan);
   stats->first_variable = plan.first;
+  std::vector<int> next;
+  bool rolled_back = false;
   if (plan.moves) {
+    // Landing a far loop closure is a trial: graduation from the convex
+    // start is a heuristic for the robust objective, and a group of false
+    // loop closures that agree with each other can lead it to a minimum
+    // where the map bends towards them. The trial stands only if it ends
+    // lower on the objective than not landing them at all.
+    const bool trial = !plan.cycles.empty() && options_.schedule.kind != ScheduleKind::kNone;
+    // Judged on the window, which holds the whole cycle of what landed,
+    // before the whole-graph refinement spreads the result.
+    const Snapshot before = trial ? snapshot(plan.first) : Snapshot();
     selectGraduating(&plan);
     stats->graduated = static_cast<int>(plan.graduating.size());
     const Poses window_before = windowPoses(plan);
     runGncSteps(&plan, stats);
     settle(plan.first, maxSettleIterations(), plan.last_step, stats);
-    refine(plan, window_before, stats);
+    rolled_back = trial && solver_.objective(plan.first) > before.objective;
+    if (rolled_back)
+      next = rollBack(before, plan);
+    else
+      refine(plan, window_before, stats);
   }
-  finish(plan, *stats);
-  pending_.clear();
-  needs_restart_.clear();
+  if (!rolled_back) {
+    finish(plan, *stats);
+    next = explainedAfterLanding(plan.explained);
+    needs_restart_.clear();
+  }
   total_iterations_ += stats->iterations;
   total_gnc_steps_ += stats->gnc_steps;
-  return plan.explained;
+  return next;
+}
+
+IncrementalGnc::Snapshot IncrementalGnc::snapshot(int first) const {
+  Snapshot s;
+  s.first = first;
+  s.estimate.reserve(numPoses() - first);
+  for (int i = first; i < numPoses(); ++i) s.estimate.push_back(solver_.pose(i));
+  s.loops.reserve(loops_.size());
+  for (const LoopClosure& l : loops_)
+    s.loops.push_back({l.graduation, l.distance, l.weight, l.uncorroborated, l.inlier, l.dormant});
+  s.objective = solver_.objective(first);
+  return s;
+}
+
+std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePlan& plan) {
+  for (int i = before.first; i < numPoses(); ++i) solver_.setPose(i, before.estimate[i - before.first]);
+  for (size_t k = 0; k < loops_.size(); ++k) {
+    LoopClosure& loop = loops_[k];
+    const Snapshot::LoopState& saved = before.loops[k];
+    loop.graduation = saved.graduation;
+    loop.distance = saved.distance;
+    loop.weight = saved.weight;
+    loop.uncorroborated = saved.uncorroborated;
+    loop.inlier = saved.inlier;
+    solver_.setMu(loop.factor, loop.graduation.mu);
+    setDormant(&loop, saved.dormant);
+  }
+  // As if the map had not explained them (judgeFar): rejected at mu = 1; a
+  // later corroborating loop closure starts another trial with them.
+  for (int index : plan.cycles) {
+    LoopClosure& loop = loops_[index];
+    loop.uncorroborated = true;
+    schedule_.startAtOne(&loop.graduation);
+    finishAt(&loop, 1.0);
+    refresh(&loop);
+  }
+  std::vector<int> again;
+  for (int index : pending_)
+    if (std::find(plan.cycles.begin(), plan.cycles.end(), index) == plan.cycles.end()) again.push_back(index);
+  return again;
 }
 
 std::vector<int> IncrementalGnc::explainedAfterLanding(const std::vector<int>& landed) {

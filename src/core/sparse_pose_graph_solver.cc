@@ -138,6 +138,18 @@ double SparsePoseGraphSolver::totalCost() const {
   return cost;
 }
 
+double SparsePoseGraphSolver::objective(int first_variable) const {
+  const SigLoss graduated(1.0, shape_c_);
+  double cost = 0.0, residual[6];
+  for (const Factor& f : factors_) {
+    if (f.mode == FactorMode::kDisabled || std::max(f.a, f.b) < first_variable) continue;
+    evaluate(f, residual, nullptr, nullptr);
+    const double r = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).norm();
+    cost += f.mode == FactorMode::kPlain ? 0.5 * r * r : graduated.rho(r);
+  }
+  return cost;
+}
+
 double SparsePoseGraphSolver::windowCost() const {
   double cost = 0.0, residual[6];
   for (const FactorSlot& slot : slots_) {

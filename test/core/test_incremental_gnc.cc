@@ -48,12 +48,14 @@ std::unique_ptr<IncrementalGnc> squareEngine(const GncOptions& options) {
 // Outliers are placed against the outlier-free optimum (the geometry the
 // engine can know), as the replay tool does; `reference` receives it.
 PoseGraph withOutliers(const PoseGraph& graph, const std::string& name, double percent,
-                       std::uint64_t seed, PoseGraph* reference = nullptr) {
+                       std::uint64_t seed, PoseGraph* reference = nullptr,
+                       OutlierMode mode = OutlierMode::kRandom) {
   PoseGraph optimum = graph;
   optimizeBatch(&optimum);
   OutlierOptions outliers;
   outliers.percent = percent;
   outliers.seed = seed;
+  outliers.mode = mode;
   PoseGraph out = injectOutliers(graph, optimum, name, outliers);
   if (reference != nullptr) *reference = std::move(optimum);
   return out;
@@ -328,6 +330,28 @@ TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
   const double ate_pulled = absoluteTrajectoryError(pulled.estimate, reference.poses, 2);
   EXPECT_LT(ate, 0.05);  // measured 0.025 m (0.142 m pulled)
   EXPECT_LT(ate, 0.5 * ate_pulled);
+}
+
+// Perceptual aliasing: groups of ten false loop closures that agree with
+// each other (one shared wrong measurement). Each new member corroborates
+// the rejected ones, so the group is landed again and again; graduation
+// from the convex start over the whole cycle can end in a minimum where the
+// map bends towards the group and true loop closures are rejected. A trial
+// stands only if it ends lower on the robust objective than the map without
+// it. Measured: random-grouped P = R = 1, ATE 0.028 m; local-grouped 0.140 m
+// (before the check: P 0.996 / R 0.983, 11.0 m and P 0.982, 2.27 m).
+TEST(IncrementalGncEndToEnd, GroupsOfFalseLoopClosuresDoNotFoldManhattan) {
+  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
+  for (const OutlierMode mode : {OutlierMode::kRandomGrouped, OutlierMode::kLocalGrouped}) {
+    PoseGraph reference;
+    const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
+                                         "manhattanOlson3500", 30.0, 1, &reference, mode);
+    const ReplayResult result = replay(logFromGraph(graph, "m1200"), ReplayOptions());
+    const double ate = absoluteTrajectoryError(result.estimate, reference.poses, 2);
+    EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0) << toString(mode);
+    EXPECT_DOUBLE_EQ(result.counts.recall(), 1.0) << toString(mode);
+    EXPECT_LT(ate, 0.2) << toString(mode);
+  }
 }
 
 // Entry by entry, the ring's closing loop closures arrive after a drift of

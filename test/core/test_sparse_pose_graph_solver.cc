@@ -106,6 +106,31 @@ TEST(SparsePoseGraphSolver, DisabledFactorHasNoWeightAndNoInfluence) {
   EXPECT_NEAR(solver.whitenedNorm(bad), 4.0, 1e-9);
 }
 
+// The objective a trial is judged by: every robust factor at mu = 1
+// (Geman-McClure, 1/2 c^2 r^2 / (c^2 + r^2)) whatever its mu, dormant ones
+// included, disabled ones not; plain factors 1/2 r^2.
+TEST(SparsePoseGraphSolver, ObjectiveIsTheGraduatedCostWhateverMu) {
+  SparsePoseGraphSolver solver(2, 3.0);
+  solver.addPose(Pose::fromSE2(0, 0, 0));
+  solver.addPose(Pose::fromSE2(1, 0, 0));
+  solver.addFactor(0, 1, Pose::fromSE2(1, 0, 0.5), Eigen::Matrix3d::Identity(), FactorMode::kPlain);  // r = 0.5
+  const int robust = solver.addFactor(0, 1, Pose::fromSE2(3, 0, 0), Eigen::Matrix3d::Identity(), FactorMode::kRobust);
+  const int dormant = solver.addFactor(0, 1, Pose::fromSE2(5, 0, 0), Eigen::Matrix3d::Identity(), FactorMode::kRobust);
+  solver.addFactor(0, 1, Pose::fromSE2(9, 0, 0), Eigen::Matrix3d::Identity(), FactorMode::kDisabled);
+  solver.setMu(robust, 0.0);
+  solver.setMu(dormant, 0.3);
+  solver.setDormant(dormant, true);
+  ASSERT_NEAR(solver.whitenedNorm(robust), 2.0, 1e-12);
+  ASSERT_NEAR(solver.whitenedNorm(dormant), 4.0, 1e-12);
+  const auto geman_mcclure = [](double r) { return 0.5 * 9.0 * r * r / (9.0 + r * r); };
+  const double expected = 0.5 * 0.25 + geman_mcclure(2.0) + geman_mcclure(4.0);
+  EXPECT_NEAR(solver.objective(), expected, 1e-12);
+  solver.setMu(robust, 1.0);
+  solver.setMu(dormant, 1.0);
+  solver.setDormant(dormant, false);
+  EXPECT_NEAR(solver.totalCost(), expected, 1e-12);
+}
+
 // CHOLMOD's own OpenMP team is switched off for the thread that factorises
 // (see keepCholmodSerial), and for that thread only: a nodelet manager's other
 // threads keep their parallelism.

@@ -122,7 +122,10 @@ struct GncOptions {
     // q(0.95)): a place seen again after a long drift yields a run of such
     // loop closures. Otherwise it is landed if the map explains it better
     // than chance (loop_prediction.h), and rejected without a solve if not.
-    // 0: corroboration never lands one.
+    // Either way the landing is a trial that stands only if it lowers the
+    // robust objective (IncrementalGnc::update): a group of false loop
+    // closures corroborates itself, but cannot bend a map whose true loop
+    // closures it contradicts. 0: corroboration never lands one.
     int support_radius = 5;
   };
 

@@ -75,7 +75,11 @@ class IncrementalGnc {
   // Brings the estimate up to date. Without queued loop closures or
   // overrides this does nothing (no solve is needed). A far loop closure
   // that the map explained and landed makes another pass judge again the
-  // ones rejected as unexplained whose cycles overlap its own.
+  // ones rejected as unexplained whose cycles overlap its own. Landing far
+  // loop closures is a trial: if it ends higher on the robust objective
+  // (SparsePoseGraphSolver::objective) than the estimate before it, the
+  // estimate and every loop closure's state return to what they were, the
+  // landed ones are rejected and the other new ones are judged again.
   UpdateStats update();
   // Iterates on the whole graph until convergence (at most `max_iterations`).
   UpdateStats optimize(int max_iterations = 20);
@@ -121,9 +125,29 @@ class IncrementalGnc {
     double last_step = std::numeric_limits<double>::infinity();
   };
 
+  // What a pass that lands far loop closures may have to return to (see
+  // updatePass()).
+  struct Snapshot {
+    int first = 0;      // the oldest free pose of the pass
+    Poses estimate;     // poses first ..
+    struct LoopState {  // what a pass may change of a loop closure
+      GraduationState graduation;
+      double distance, weight;
+      bool uncorroborated, inlier, dormant;
+    };
+    std::vector<LoopState> loops;
+    double objective = 0.0;  // SparsePoseGraphSolver::objective(first)
+  };
+
   // One pass of update(): judges what is pending and brings the estimate up
-  // to date; returns the far loop closures the map explained and landed.
+  // to date; returns what the next pass judges: the loop closures rejected
+  // as unexplained that a far one the map explained makes worth judging
+  // again, or after a failed trial the other new ones.
   std::vector<int> updatePass(UpdateStats* stats);
+  Snapshot snapshot(int first) const;
+  // Returns to `before`, rejects the far loop closures the trial landed and
+  // returns the other pending ones, to be judged again.
+  std::vector<int> rollBack(const Snapshot& before, const UpdatePlan& plan);
   // Loop closures rejected on arrival as unexplained whose cycle overlaps
   // one of `landed`'s and that the map, tighter now, explains.
   std::vector<int> explainedAfterLanding(const std::vector<int>& landed);

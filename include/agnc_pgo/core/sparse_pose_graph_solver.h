@@ -108,6 +108,11 @@ class SparsePoseGraphSolver {
 
   // Robust cost over all factors (0.5 * sum rho).
   double totalCost() const;
+  // The cost GNC minimises once every robust factor has graduated, over the
+  // factors with an endpoint >= first_variable (those a window solve can
+  // change): as totalCost(), but each robust factor at mu = 1
+  // (Geman-McClure) whatever its current mu, and dormant ones included.
+  double objective(int first_variable = 0) const;
 
   // What the rest of the window predicts for a factor: its whitened residual
   // r and the covariance S = s0^2 (I + J H^-1 J^T) of r, where J is its
