@@ -32,7 +32,8 @@ struct LoopClosure {
   double distance = 0.0;      // last whitened residual norm r
   // Rejected on arrival: a confident outlier by its own covariance (beyond
   // q(0.9)) that no neighbouring loop closure corroborated (yet) and that
-  // the map does not explain better than chance (loop_prediction.h).
+  // the map does not explain better than chance (loop_prediction.h); or
+  // landed, and undone because the trial raised the objective (update()).
   bool uncorroborated = false;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (GncOptions::Schedule::classification)
