@@ -248,6 +248,7 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats) {
   }
   total_iterations_ += stats->iterations;
   total_gnc_steps_ += stats->gnc_steps;
+  if (getenv("AGNC_TRACE")) fprintf(stderr, "TRACE n=%d pend=%zu cyc=%zu expl=%zu first=%d gnc=%d it=%d ref=%d rb=%d next=%zu\n", numPoses(), pending_.size(), plan.cycles.size(), plan.explained.size(), plan.first, stats->gnc_steps, stats->iterations, stats->refinement_iterations, (int)rolled_back, next.size());
   return next;
 }
 
@@ -258,7 +259,7 @@ IncrementalGnc::Snapshot IncrementalGnc::snapshot(int first) const {
   for (int i = first; i < numPoses(); ++i) s.estimate.push_back(solver_.pose(i));
   s.loops.reserve(loops_.size());
   for (const LoopClosure& l : loops_)
-    s.loops.push_back({l.graduation, l.distance, l.weight, l.uncorroborated, l.inlier, l.dormant});
+    s.loops.push_back({l.graduation, l.distance, l.weight, l.uncorroborated, l.undone, l.inlier, l.dormant});
   s.objective = solver_.objective(first);
   return s;
 }
@@ -272,6 +273,7 @@ std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePl
     loop.distance = saved.distance;
     loop.weight = saved.weight;
     loop.uncorroborated = saved.uncorroborated;
+    loop.undone = saved.undone;
     loop.inlier = saved.inlier;
     solver_.setMu(loop.factor, loop.graduation.mu);
     setDormant(&loop, saved.dormant);
@@ -281,6 +283,7 @@ std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePl
   for (int index : plan.cycles) {
     LoopClosure& loop = loops_[index];
     loop.uncorroborated = true;
+    loop.undone = true;
     schedule_.startAtOne(&loop.graduation);
     finishAt(&loop, 1.0);
     refresh(&loop);
@@ -301,7 +304,7 @@ std::vector<int> IncrementalGnc::explainedAfterLanding(const std::vector<int>& l
   }
   for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
     const LoopClosure& loop = loops_[index];
-    if (loop.uncorroborated && loop.override_mode == LoopOverride::kAuto && newerEnd(loop.edge) >= low &&
+    if (loop.uncorroborated && !loop.undone && loop.override_mode == LoopOverride::kAuto && newerEnd(loop.edge) >= low &&
         olderEnd(loop.edge) <= high)
       candidates.push_back(index);
   }
@@ -410,6 +413,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
 void IncrementalGnc::land(int index, UpdatePlan* plan) {
   LoopClosure& loop = loops_[index];
   loop.uncorroborated = false;
+  loop.undone = false;
   loop.graduation.init_step = 0;
   loop.graduation.mu_init = 0.0;
   setDormant(&loop, false);

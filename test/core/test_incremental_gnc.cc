@@ -487,6 +487,37 @@ TEST(IncrementalGncEndToEnd, ALoopClosureTheMapCouldNotTellIsJudgedAgainWhenItTi
   EXPECT_LT(absoluteTrajectoryError(engine.poses(), drive.optimum().poses, 2), 0.05);
 }
 
+// A false loop closure the map cannot rule out: back at the start, the
+// front-end claims that the end of the block is the place 30 m along its
+// first side. The odometry's uncertainty over 800 steps covers 30 m, so the
+// claim is landed as a trial; bending the block onto it costs more than
+// rejecting it, so the trial is undone. That verdict stands when a later
+// true loop closure tightens the map: only a corroborating loop closure
+// would land the claim again, so closing the later cycle costs what it costs
+// in the same drive without the claim.
+TEST(IncrementalGncEndToEnd, AnUndoneTrialIsNotJudgedAgainWhenTheMapTightens) {
+  long steps_to_close[2];
+  for (bool claim : {false, true}) {
+    BlockDrive drive(1.0);
+    const IncrementalGnc& engine = drive.engine;
+    if (claim) {
+      const LoopClosure& alias = drive.claimSamePlace(BlockDrive::kPoses, 30);
+      EXPECT_TRUE(alias.undone);
+      EXPECT_FALSE(alias.inlier);
+    }
+    for (int i = 0; i < 100; ++i) drive.step(i == 99 ? M_PI / 2 : 0.0);
+    for (int i = 0; i < 200; ++i) drive.step(0.0);
+    const long before = engine.totalGncSteps();
+    EXPECT_TRUE(drive.close(1100, 500).inlier);
+    steps_to_close[claim] = engine.totalGncSteps() - before;
+    if (claim) {
+      EXPECT_TRUE(engine.loopClosures()[0].undone);
+      EXPECT_FALSE(engine.loopClosures()[0].inlier);
+    }
+  }
+  EXPECT_EQ(steps_to_close[true], steps_to_close[false]);
+}
+
 // Two sessions: the second starts 30 m and 1 rad away from where the first
 // ended, with no odometry between them (a robot restarted). Its loop
 // closures to the first session attach it; the result is the least-squares

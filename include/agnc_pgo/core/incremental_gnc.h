@@ -35,6 +35,10 @@ struct LoopClosure {
   // the map does not explain better than chance (loop_prediction.h); or
   // landed, and undone because the trial raised the objective (update()).
   bool uncorroborated = false;
+  // Landed in a trial that raised the objective and was undone: the map's
+  // test proposed it and the objective said no, so a tighter map alone does
+  // not propose it again; a corroborating loop closure arriving later does.
+  bool undone = false;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (GncOptions::Schedule::classification)
   bool dormant = false;       // out of the linear system (see GncOptions::Rejection::dormant_weight)
@@ -134,7 +138,7 @@ class IncrementalGnc {
     struct LoopState {  // what a pass may change of a loop closure
       GraduationState graduation;
       double distance, weight;
-      bool uncorroborated, inlier, dormant;
+      bool uncorroborated, undone, inlier, dormant;
     };
     std::vector<LoopState> loops;
     double objective = 0.0;  // SparsePoseGraphSolver::objective(first)
@@ -149,7 +153,7 @@ class IncrementalGnc {
   // Returns to `before`, rejects the far loop closures the trial landed and
   // returns the other pending ones, to be judged again.
   std::vector<int> rollBack(const Snapshot& before, const UpdatePlan& plan);
-  // Loop closures rejected on arrival as unexplained whose cycle overlaps
+  // Loop closures rejected on arrival as unexplained (not undone trials) whose cycle overlaps
   // one of `landed`'s and that the map, tighter now, explains.
   std::vector<int> explainedAfterLanding(const std::vector<int>& landed);
   // The steps of a pass, in order.
