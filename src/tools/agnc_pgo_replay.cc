@@ -282,6 +282,7 @@ int main(int argc, char** argv) {
       std::ofstream(dir / "metrics.json") << json.str();
       writeG2o(resultGraph(log, result), (dir / "estimate.g2o").string());
       writeTumTrajectory(result.estimate, (dir / "trajectory.tum").string());
+      writeG2o(inlier_optimum, (dir / "reference.g2o").string());
       std::ofstream csv(dir / "loop_closures.csv");
       csv << "from,to,outlier,mu,weight,distance,inlier,uncorroborated\n" << std::setprecision(10);
       for (const LoopClosureResult& l : result.loop_closures)
