@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -78,6 +79,7 @@ void IncrementalGnc::addPoseWithPrior(const Pose& value, const Eigen::MatrixXd& 
   sqrtInformation(information);  // throws if not positive definite
   const int id = solver_.addPose(value);
   solver_.addFactor(SparsePoseGraphSolver::kAnchor, id, value, information, FactorMode::kPlain);
+  odometry_into_.push_back(-1);  // the start of a chain
 }
 
 void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {
@@ -99,9 +101,11 @@ void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {
 
 void IncrementalGnc::addOdometry(const Edge& edge) {
   validateEdge(edge, /*allow_new_pose=*/true);
-  if (edge.to == numPoses()) solver_.addPose(solver_.pose(edge.from) * edge.measurement);
+  const bool new_pose = edge.to == numPoses();
+  if (new_pose) solver_.addPose(solver_.pose(edge.from) * edge.measurement);
   solver_.addFactor(edge.from, edge.to, edge.measurement, edge.information, FactorMode::kPlain);
   odometry_.push_back(edge);
+  if (new_pose) odometry_into_.push_back(edge.from == edge.to - 1 ? static_cast<int>(odometry_.size()) - 1 : -1);
 }
 
 int IncrementalGnc::addLoopClosure(const Edge& edge) {
@@ -353,10 +357,24 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   const auto landed = [plan](int index) {
     return std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end();
   };
+  // The pairwise test uses the noise the map shows, as the map's test does
+  // (the a-posteriori variance of unit weight over the factors the new loop
+  // closures' cycles reach, without them); computed once a pair is tested.
+  double variance_factor = 0.0;
+  const auto varianceFactor = [this, &variance_factor]() {
+    if (variance_factor > 0.0) return variance_factor;
+    int oldest = numPoses();
+    std::vector<int> judged;
+    for (int index : pending_) {
+      oldest = std::min(oldest, olderEnd(loops_[index].edge));
+      judged.push_back(loops_[index].factor);
+    }
+    return variance_factor = solver_.varianceFactor(oldest, judged);
+  };
   std::vector<int> alone;
   for (int index : far) {
     if (landed(index)) continue;  // as the partner of an earlier one of this update
-    const std::vector<int> partners = corroboratingLoops(index, far);
+    const std::vector<int> partners = corroboratingLoops(index, far, varianceFactor);
     if (partners.empty()) {
       alone.push_back(index);
       continue;
@@ -421,7 +439,8 @@ void IncrementalGnc::land(int index, UpdatePlan* plan) {
   plan->cycles.push_back(index);
 }
 
-std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector<int>& far) const {
+std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector<int>& far,
+                                                    const std::function<double()>& variance_factor) const {
   // Rejected loop closures, or far ones arriving in the same update, whose
   // endpoints both lie within support_radius poses of this one's and that
   // pass PCM's pairwise consistency test with it: a place seen again
@@ -432,6 +451,10 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
   if (radius == 0) return partners;
   const Edge& e = loops_[index].edge;
   const auto pose = [this](int id) { return solver_.pose(id); };
+  const StepCovariance step = [this](int p) -> Eigen::MatrixXd {
+    const int index = odometry_into_[p];
+    return index < 0 ? Eigen::MatrixXd() : Eigen::MatrixXd(odometry_[index].information.inverse());
+  };
   const int last = std::min(newerEnd(e) + radius, static_cast<int>(loops_by_newer_pose_.size()) - 1);
   for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p) {
     for (int other : loops_by_newer_pose_[p]) {
@@ -443,7 +466,7 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
       if (other == index || candidate.override_mode != LoopOverride::kAuto || !(rejected || arriving) ||
           !areNeighbours(e, candidate.edge, radius))
         continue;
-      const double d = cycleDistance(dimension_, e, candidate.edge, pose);
+      const double d = cycleDistance(dimension_, e, candidate.edge, pose, step, variance_factor());
       if (d * d < schedule_.thresholds().q95) partners.push_back(other);
     }
   }

@@ -396,14 +396,30 @@ Eigen::MatrixXd SparsePoseGraphSolver::relativeCovariance(const Eigen::MatrixXd&
 }
 
 double SparsePoseGraphSolver::windowVarianceFactor() const {
+  std::vector<int> window;
+  window.reserve(slots_.size());
+  for (const FactorSlot& slot : slots_) window.push_back(slot.factor);
+  return varianceFactorOf(window);
+}
+
+double SparsePoseGraphSolver::varianceFactor(int first_variable, const std::vector<int>& without) const {
+  std::vector<char> left_out(factors_.size(), 0);
+  for (int k : without) left_out[k] = 1;
+  std::vector<int> factors;
+  for (int k = 0; k < static_cast<int>(factors_.size()); ++k)
+    if (!left_out[k] && std::max(factors_[k].a, factors_[k].b) >= first_variable) factors.push_back(k);
+  return varianceFactorOf(factors);
+}
+
+double SparsePoseGraphSolver::varianceFactorOf(const std::vector<int>& factors) const {
   // Each robust factor adds its dimension to the redundancy, times its
   // kernel weight (a rejected one adds nothing); the stated covariances
   // count as a prior worth one factor, so a window without loop closures
   // keeps a factor of 1.
   const double dof = tangent_;
   double chi2 = dof, redundancy = dof, residual[6];
-  for (const FactorSlot& slot : slots_) {
-    const Factor& f = factors_[slot.factor];
+  for (int k : factors) {
+    const Factor& f = factors_[k];
     if (f.mode == FactorMode::kDisabled || f.excluded) continue;
     evaluate(f, residual, nullptr, nullptr);
     const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();

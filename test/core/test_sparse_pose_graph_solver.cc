@@ -218,3 +218,24 @@ TEST(SparsePoseGraphSolver, PredictionIsCalibratedByTheWindowsVarianceFactor) {
   // the relative position of 0 and 4 (it is stiffer than the odometry).
   EXPECT_LT(s_calibrated, s_plain * 3.0 / 5.7 + 1e-9);
 }
+
+// The variance factor of a part of the graph, as the pairwise test of
+// loop closures uses it: the stated covariances count as a prior worth one
+// factor (chi2 3 over redundancy 3), a robust loop closure that fits adds
+// its weight (0.9) times 3 to the redundancy, and the plain loop closure
+// 0 -> 4 (r = 3) adds 9 to the chi2 unless it is one of those being judged.
+// Factors with both endpoints before first_variable do not count.
+TEST(SparsePoseGraphSolver, VarianceFactorLeavesOutWhatIsJudged) {
+  SparsePoseGraphSolver solver(2);
+  for (int i = 0; i < 5; ++i) solver.addPose(Pose::fromSE2(i, 0, 0));
+  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
+                   FactorMode::kPlain);
+  for (int i = 0; i < 4; ++i)
+    solver.addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kPlain);
+  const int judged = solver.addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
+                                      FactorMode::kPlain);
+  solver.addFactor(0, 2, Pose::fromSE2(2, 0, 0), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kRobust);
+  EXPECT_NEAR(solver.varianceFactor(0, {judged}), 3.0 / 5.7, 1e-12);
+  EXPECT_NEAR(solver.varianceFactor(0, {}), 12.0 / 5.7, 1e-9);
+  EXPECT_NEAR(solver.varianceFactor(3, {}), 12.0 / 3.0, 1e-9);
+}

@@ -11,6 +11,7 @@
 // The engine is deterministic for a given input and options.
 #pragma once
 
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -160,7 +161,10 @@ class IncrementalGnc {
   UpdatePlan judgeArrivals();
   void judgeFar(const std::vector<int>& far, UpdatePlan* plan);
   void land(int index, UpdatePlan* plan);
-  std::vector<int> corroboratingLoops(int index, const std::vector<int>& far) const;
+  // variance_factor() is the a-posteriori variance of unit weight the
+  // pairwise test scales the stated covariances by.
+  std::vector<int> corroboratingLoops(int index, const std::vector<int>& far,
+                                      const std::function<double()>& variance_factor) const;
   // For each far loop closure, whether the map's uncertainty between its
   // endpoints explains it better than chance (loop_prediction.h).
   std::vector<bool> explainedByTheMap(const std::vector<int>& loops);
@@ -193,6 +197,7 @@ class IncrementalGnc {
   GraduationSchedule schedule_;
   SparsePoseGraphSolver solver_;
   std::vector<Edge> odometry_;
+  std::vector<int> odometry_into_;  // per pose p: index in odometry_ of the edge p-1 -> p that created it, or -1
   std::vector<LoopClosure> loops_;
   std::vector<std::vector<int>> loops_by_newer_pose_;  // loop indices by their newer endpoint
   std::vector<int> pending_;       // loop indices queued for the next update

@@ -130,6 +130,12 @@ class SparsePoseGraphSolver {
     Eigen::MatrixXd covariance;
   };
   std::vector<Prediction> predict(const std::vector<int>& factors, int first_variable);
+  // The a-posteriori variance of unit weight over the factors with an
+  // endpoint >= first_variable but `without` (those being judged), at the
+  // current estimate, as predict() uses for its window: sum of w r^2 over
+  // sum of w dim for robust factors of kernel weight w, the stated
+  // covariances counting as one more factor.
+  double varianceFactor(int first_variable, const std::vector<int>& without) const;
 
  private:
   struct Factor {
@@ -162,6 +168,7 @@ class SparsePoseGraphSolver {
   bool factorize();
   // The IRLS-weighted chi2 of the window's factors over their redundancy.
   double windowVarianceFactor() const;
+  double varianceFactorOf(const std::vector<int>& factors) const;
   // J H^-1 J^T for a factor's whitened Jacobian J (J^T: window rows x d,
   // zero above first_row) with the factorised Hessian of the window.
   Eigen::MatrixXd relativeCovariance(const Eigen::MatrixXd& jt, long first_row);
