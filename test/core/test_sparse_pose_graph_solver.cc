@@ -46,6 +46,20 @@ double maxPositionDifference(const SparsePoseGraphSolver& solver, const PoseGrap
   return worst;
 }
 
+// Five poses 1 m apart along x, pose 0 anchored, odometry of the given
+// information, and a plain loop closure 0 -> 4 measuring 4.3 m; returns the
+// loop closure's factor.
+int straightChainWithLoopClosure(double information, SparsePoseGraphSolver* solver) {
+  for (int i = 0; i < 5; ++i) solver->addPose(Pose::fromSE2(i, 0, 0));
+  solver->addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
+                    FactorMode::kPlain);
+  for (int i = 0; i < 4; ++i)
+    solver->addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), information * Eigen::Matrix3d::Identity(),
+                      FactorMode::kPlain);
+  return solver->addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), information * Eigen::Matrix3d::Identity(),
+                           FactorMode::kPlain);
+}
+
 }  // namespace
 
 TEST(SparsePoseGraphSolver, NoisyToyGraphReachesGtsamOptimum) {
@@ -168,13 +182,7 @@ TEST(SparsePoseGraphSolver, RejectsUnknownPosesAndBadInformation) {
 // the variance factor is the prior's, 1.
 TEST(SparsePoseGraphSolver, PredictionIsTheCostOfLandingTheFactor) {
   SparsePoseGraphSolver solver(2);
-  for (int i = 0; i < 5; ++i) solver.addPose(Pose::fromSE2(i, 0, 0));
-  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
-                   FactorMode::kPlain);
-  for (int i = 0; i < 4; ++i)
-    solver.addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kPlain);
-  const int loop = solver.addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
-                                    FactorMode::kPlain);
+  const int loop = straightChainWithLoopClosure(100.0, &solver);
   EXPECT_NEAR(solver.whitenedNorm(loop), 3.0, 1e-9);
   const std::vector<SparsePoseGraphSolver::Prediction> p = solver.predict({loop}, 0);
   ASSERT_EQ(p.size(), 1u);
@@ -193,19 +201,9 @@ TEST(SparsePoseGraphSolver, PredictionIsTheCostOfLandingTheFactor) {
 // closures show it (their chi2 per dimension is a quarter), and the
 // prediction's covariance shrinks by that variance factor.
 TEST(SparsePoseGraphSolver, PredictionIsCalibratedByTheWindowsVarianceFactor) {
-  auto chain = [](double information, SparsePoseGraphSolver* solver) {
-    for (int i = 0; i < 5; ++i) solver->addPose(Pose::fromSE2(i, 0, 0));
-    solver->addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
-                      FactorMode::kPlain);
-    for (int i = 0; i < 4; ++i)
-      solver->addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), information * Eigen::Matrix3d::Identity(),
-                        FactorMode::kPlain);
-    return solver->addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), information * Eigen::Matrix3d::Identity(),
-                             FactorMode::kPlain);
-  };
   SparsePoseGraphSolver plain(2), calibrated(2);
-  const int a = chain(100.0, &plain);
-  const int b = chain(100.0, &calibrated);
+  const int a = straightChainWithLoopClosure(100.0, &plain);
+  const int b = straightChainWithLoopClosure(100.0, &calibrated);
   // A robust loop closure 0 -> 2 that fits the chain exactly: chi2 adds
   // nothing, the redundancy its weight (0.9 at mu = 0) times 3.
   const int fit = calibrated.addFactor(0, 2, Pose::fromSE2(2, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
@@ -227,13 +225,7 @@ TEST(SparsePoseGraphSolver, PredictionIsCalibratedByTheWindowsVarianceFactor) {
 // Factors with both endpoints before first_variable do not count.
 TEST(SparsePoseGraphSolver, VarianceFactorLeavesOutWhatIsJudged) {
   SparsePoseGraphSolver solver(2);
-  for (int i = 0; i < 5; ++i) solver.addPose(Pose::fromSE2(i, 0, 0));
-  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
-                   FactorMode::kPlain);
-  for (int i = 0; i < 4; ++i)
-    solver.addFactor(i, i + 1, Pose::fromSE2(1, 0, 0), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kPlain);
-  const int judged = solver.addFactor(0, 4, Pose::fromSE2(4.3, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
-                                      FactorMode::kPlain);
+  const int judged = straightChainWithLoopClosure(100.0, &solver);
   solver.addFactor(0, 2, Pose::fromSE2(2, 0, 0), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kRobust);
   EXPECT_NEAR(solver.varianceFactor(0, {judged}), 3.0 / 5.7, 1e-12);
   EXPECT_NEAR(solver.varianceFactor(0, {}), 12.0 / 5.7, 1e-9);
