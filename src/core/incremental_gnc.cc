@@ -252,7 +252,6 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats) {
   }
   total_iterations_ += stats->iterations;
   total_gnc_steps_ += stats->gnc_steps;
-  if (getenv("AGNC_TRACE")) fprintf(stderr, "TRACE n=%d pend=%zu cyc=%zu expl=%zu first=%d gnc=%d it=%d ref=%d rb=%d next=%zu\n", numPoses(), pending_.size(), plan.cycles.size(), plan.explained.size(), plan.first, stats->gnc_steps, stats->iterations, stats->refinement_iterations, (int)rolled_back, next.size());
   return next;
 }
 
