@@ -407,7 +407,8 @@ double SparsePoseGraphSolver::varianceFactor(int first_variable, const std::vect
   for (int k : without) left_out[k] = 1;
   std::vector<int> factors;
   for (int k = 0; k < static_cast<int>(factors_.size()); ++k)
-    if (!left_out[k] && std::max(factors_[k].a, factors_[k].b) >= first_variable) factors.push_back(k);
+    if (!left_out[k] && !factors_[k].dormant && std::max(factors_[k].a, factors_[k].b) >= first_variable)
+      factors.push_back(k);
   return varianceFactorOf(factors);
 }
 

@@ -131,8 +131,9 @@ class SparsePoseGraphSolver {
   };
   std::vector<Prediction> predict(const std::vector<int>& factors, int first_variable);
   // The a-posteriori variance of unit weight over the factors with an
-  // endpoint >= first_variable but `without` (those being judged), at the
-  // current estimate, as predict() uses for its window: sum of w r^2 over
+  // endpoint >= first_variable but `without` (those being judged) and the
+  // dormant ones, at the current estimate, as predict() uses for its
+  // window (the same factors): sum of w r^2 over
   // sum of w dim for robust factors of kernel weight w, the stated
   // covariances counting as one more factor.
   double varianceFactor(int first_variable, const std::vector<int>& without) const;
