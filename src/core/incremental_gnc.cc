@@ -413,16 +413,33 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
     first = std::min(first, olderEnd(loops_[index].edge));
     factors.push_back(loops_[index].factor);
   }
+  // Even prior odds: a far loop closure is as likely false as true until
+  // the map says otherwise. A loop closure that even one path of the map
+  // between its endpoints cannot explain -- the path alone is less certain
+  // than the map -- is decided without factorising the map (a random
+  // outlier far off usually is); the others are predicted by the map. The
+  // variance factor is the one the map's prediction uses.
+  const double variance_factor = solver_.varianceFactor(first, factors);
+  const Eigen::VectorXd extent = mapExtent(dimension_, poses());
+  std::vector<double> log_volume(loops.size());
+  std::vector<int> undecided, undecided_factors;
+  for (size_t i = 0; i < loops.size(); ++i) {
+    const Edge& e = loops_[loops[i]].edge;
+    log_volume[i] = logChanceVolume(extent, e.information);
+    const SparsePoseGraphSolver::Prediction along_path =
+        solver_.predictAlongPath(factors[i], solver_.shortestPath(olderEnd(e), newerEnd(e), factors), variance_factor);
+    if (logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume[i]) <= 0.0) continue;
+    undecided.push_back(static_cast<int>(i));
+    undecided_factors.push_back(factors[i]);
+  }
+  if (undecided.empty()) return explained;
   // The whole cycle each closes is free; the prediction of the map holds
   // the older poses fixed, which is what landing it would do.
-  const std::vector<SparsePoseGraphSolver::Prediction> predictions = solver_.predict(factors, first);
-  const Eigen::VectorXd extent = mapExtent(dimension_, poses());
-  for (size_t i = 0; i < loops.size(); ++i) {
-    // Even prior odds: a far loop closure is as likely false as true until
-    // the map says otherwise.
-    const double log_odds = logPredictionOdds(predictions[i].residual, predictions[i].covariance,
-                                              logChanceVolume(extent, loops_[loops[i]].edge.information));
-    explained[i] = log_odds > 0.0;
+  const std::vector<SparsePoseGraphSolver::Prediction> predictions =
+      solver_.predict(undecided_factors, first, factors);
+  for (size_t k = 0; k < undecided.size(); ++k) {
+    const SparsePoseGraphSolver::Prediction& p = predictions[k];
+    explained[undecided[k]] = logPredictionOdds(p.residual, p.covariance, log_volume[undecided[k]]) > 0.0;
   }
   return explained;
 }

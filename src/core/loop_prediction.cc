@@ -30,6 +30,16 @@ double logPredictionOdds(const Eigen::VectorXd& residual, const Eigen::MatrixXd&
   return log_chance_volume - 0.5 * (mahalanobis2 + log_det + d * std::log(2.0 * M_PI));
 }
 
+double logPredictionOddsBound(const Eigen::VectorXd& residual, const Eigen::MatrixXd& ceiling, double floor,
+                              double log_chance_volume) {
+  if (!ceiling.allFinite() || !(floor > 0.0)) return std::numeric_limits<double>::infinity();
+  const Eigen::LLT<Eigen::MatrixXd> llt(ceiling);
+  if (llt.info() != Eigen::Success) return std::numeric_limits<double>::infinity();
+  const double mahalanobis2 = llt.matrixL().solve(residual).squaredNorm();
+  const double d = static_cast<double>(residual.size());
+  return log_chance_volume - 0.5 * (mahalanobis2 + d * std::log(floor) + d * std::log(2.0 * M_PI));
+}
+
 double circularExtent(std::vector<double> angles) {
   if (angles.empty()) return 0.0;
   for (double& a : angles) a = std::remainder(a, 2.0 * M_PI);

@@ -3,12 +3,15 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <queue>
+#include <utility>
 #include <stdexcept>
 #include <string>
 
 #include <omp.h>
 
 #include <Eigen/CholmodSupport>
+#include <Eigen/LU>
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
@@ -69,6 +72,7 @@ SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
 
 int SparsePoseGraphSolver::addPose(const Pose& initial) {
   blocks_.push_back(toBlock(dimension_, initial));
+  incident_.emplace_back();
   return numPoses() - 1;
 }
 
@@ -80,6 +84,10 @@ int SparsePoseGraphSolver::addFactor(int a, int b, const Pose& z,
   Factor f{a, b, std::unique_ptr<ceres::CostFunction>(makePoseErrorCost(dimension_, z, information)),
            SigLoss(0.0, shape_c_), mode};
   factors_.push_back(std::move(f));
+  if (a != kAnchor) {
+    incident_[a].push_back(numFactors() - 1);
+    incident_[b].push_back(numFactors() - 1);
+  }
   return numFactors() - 1;
 }
 
@@ -332,7 +340,8 @@ Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
 }
 
 std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(const std::vector<int>& factors,
-                                                                               int first) {
+                                                                               int first,
+                                                                               const std::vector<int>& without) {
   const int d = tangent_;
   std::vector<Prediction> out(factors.size());
   for (size_t i = 0; i < factors.size(); ++i) {
@@ -345,10 +354,12 @@ std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(co
   if (numPoses() == first || factors.empty()) return out;
   prepare(first);
   for (int k : factors) factors_[k].excluded = true;
+  for (int k : without) factors_[k].excluded = true;
   if (d == 3) linearize<3>();
   else linearize<6>();
   const double variance_factor = windowVarianceFactor();
   for (int k : factors) factors_[k].excluded = false;
+  for (int k : without) factors_[k].excluded = false;
   const bool factorized = factorize();
 
   using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
@@ -374,6 +385,90 @@ std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(co
     else out[i].covariance = Eigen::MatrixXd::Constant(d, d, std::numeric_limits<double>::infinity());
   }
   return out;
+}
+
+SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPath(int factor, const std::vector<int>& path,
+                                                                          double variance_factor) const {
+  // Small dynamic matrices on the stack (d is 3 or 6).
+  using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 6>;
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 6, 6>;
+  const int d = tangent_;
+  const Factor& f = factors_[factor];
+  Prediction out;
+  out.residual.resize(d);
+  out.covariance = Eigen::MatrixXd::Constant(d, d, std::numeric_limits<double>::infinity());
+  double jac_a[36], jac_b[36];
+  evaluate(f, out.residual.data(), jac_a, jac_b);
+  if (f.a == kAnchor) return out;
+  const int older = std::min(f.a, f.b), newer = std::max(f.a, f.b);
+  // Linearised, a factor of weight w from pose p to the next pose q of the
+  // path says sqrt(w) (J_p dp + J_q dq) = n with n ~ N(0, I), so
+  // dq = T dp + J_q^-1 n / sqrt(w) with T = -J_q^-1 J_p, and the
+  // covariance of dq given dp's is T Sigma_p T^T + J_q^-1 J_q^-T / w.
+  Block sigma = Block::Zero(d, d);
+  int at = older;
+  double residual[6], jac_p[36], jac_q[36];
+  for (int k : path) {
+    const Factor& step = factors_[k];
+    const bool forward = step.a == at;
+    if (step.a == kAnchor || (!forward && step.b != at)) return out;
+    evaluate(step, residual, forward ? jac_p : jac_q, forward ? jac_q : jac_p);
+    double w = step.mode == FactorMode::kDisabled ? 0.0 : 1.0;
+    if (step.mode == FactorMode::kRobust) {
+      double rho[3];
+      step.loss.Evaluate(Eigen::Map<const Eigen::VectorXd>(residual, d).squaredNorm(), rho);
+      w = rho[1];
+    }
+    if (!(w > 0.0)) return out;
+    const Eigen::PartialPivLU<Block> j_q(Eigen::Map<const RowMajor>(jac_q, d, d));
+    const Block t = -j_q.solve(Block(Eigen::Map<const RowMajor>(jac_p, d, d)));
+    const Block j_q_inverse = j_q.inverse();
+    sigma = t * sigma * t.transpose() + (j_q_inverse * j_q_inverse.transpose()) / w;
+    at = forward ? step.b : step.a;
+  }
+  if (at != newer || !sigma.allFinite()) return out;
+  const Eigen::Map<const RowMajor> j_newer(f.b == newer ? jac_b : jac_a, d, d);
+  out.covariance = variance_factor * (Eigen::MatrixXd::Identity(d, d) + j_newer * sigma * j_newer.transpose());
+  return out;
+}
+
+std::vector<int> SparsePoseGraphSolver::shortestPath(int from, int to, const std::vector<int>& without) const {
+  // Dijkstra from `from`, stopping at `to`.
+  std::vector<char> left_out(factors_.size(), 0);
+  for (int k : without) left_out[k] = 1;
+  const double unreached = std::numeric_limits<double>::infinity();
+  std::vector<double> length(blocks_.size(), unreached);
+  std::vector<int> via(blocks_.size(), -1);
+  using Entry = std::pair<double, int>;
+  std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
+  length[from] = 0.0;
+  queue.push({0.0, from});
+  while (!queue.empty()) {
+    const auto [l, p] = queue.top();
+    queue.pop();
+    if (p == to) break;
+    if (l > length[p]) continue;
+    for (int k : incident_[p]) {
+      const Factor& f = factors_[k];
+      if (left_out[k] || f.dormant || f.mode == FactorMode::kDisabled) continue;
+      const int q = f.a == p ? f.b : f.a;
+      if (l + 1.0 >= length[q]) continue;  // no factor counts less than 1
+      const double w = weight(k);
+      if (!(w > 0.0) || l + 1.0 / w >= length[q]) continue;
+      length[q] = l + 1.0 / w;
+      via[q] = k;
+      queue.push({length[q], q});
+    }
+  }
+  std::vector<int> path;
+  if (length[to] == unreached) return path;
+  for (int p = to; p != from;) {
+    const Factor& f = factors_[via[p]];
+    path.push_back(via[p]);
+    p = f.a == p ? f.b : f.a;
+  }
+  std::reverse(path.begin(), path.end());
+  return path;
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::relativeCovariance(const Eigen::MatrixXd& jt, long first_row) {

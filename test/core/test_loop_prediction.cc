@@ -3,6 +3,7 @@
 #include "agnc_pgo/core/loop_prediction.h"
 
 #include <cmath>
+#include <cstdlib>
 
 #include <gtest/gtest.h>
 
@@ -54,6 +55,28 @@ TEST(LoopPrediction, ANonFiniteOrSingularCovarianceExplainsNothing) {
   const Eigen::Vector3d r(1.0, 1.0, 1.0);
   EXPECT_EQ(logPredictionOdds(r, Eigen::Matrix3d::Constant(INFINITY), 10.0), -INFINITY);
   EXPECT_EQ(logPredictionOdds(r, Eigen::Matrix3d::Zero(), 10.0), -INFINITY);
+}
+
+// The bound the map test decides with before factorising: for every
+// covariance between floor * I and the ceiling, the odds are at most it.
+TEST(LoopPrediction, OddsBoundHoldsForEveryCovarianceBetweenFloorAndCeiling) {
+  std::srand(7);
+  const double floor = 0.3, log_volume = 12.0;
+  for (int trial = 0; trial < 200; ++trial) {
+    const Eigen::Vector3d r = 5.0 * Eigen::Vector3d::Random();
+    const Eigen::Matrix3d a = Eigen::Matrix3d::Random(), b = Eigen::Matrix3d::Random();
+    const Eigen::Matrix3d map = floor * (Eigen::Matrix3d::Identity() + a * a.transpose());
+    const Eigen::Matrix3d ceiling = map + b * b.transpose();
+    const double bound = logPredictionOddsBound(r, ceiling, floor, log_volume);
+    EXPECT_GE(bound, logPredictionOdds(r, map, log_volume) - 1e-9);
+    EXPECT_GE(bound, logPredictionOdds(r, ceiling, log_volume) - 1e-9);
+  }
+  // Tight at S = floor * I = ceiling.
+  const Eigen::Vector3d r(1.0, 2.0, 0.5);
+  EXPECT_NEAR(logPredictionOddsBound(r, floor * Eigen::Matrix3d::Identity(), floor, log_volume),
+              logPredictionOdds(r, floor * Eigen::Matrix3d::Identity(), log_volume), 1e-12);
+  // An unknown ceiling bounds nothing.
+  EXPECT_EQ(logPredictionOddsBound(r, Eigen::Matrix3d::Constant(INFINITY), floor, log_volume), INFINITY);
 }
 
 TEST(LoopPrediction, ExtentIsPerAxisAndHeadingsLieOnTheCircle) {

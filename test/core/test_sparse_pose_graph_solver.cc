@@ -6,6 +6,9 @@
 
 #include <omp.h>
 
+#include <Eigen/Eigenvalues>
+
+#include <cmath>
 #include <memory>
 #include <string>
 #include <thread>
@@ -215,6 +218,102 @@ TEST(SparsePoseGraphSolver, PredictionIsCalibratedByTheWindowsVarianceFactor) {
   // Variance factor 3 / (3 + 0.9 * 3); the exact loop closure also tightens
   // the relative position of 0 and 4 (it is stiffer than the odometry).
   EXPECT_LT(s_calibrated, s_plain * 3.0 / 5.7 + 1e-9);
+}
+
+// With nothing but the odometry between its endpoints, the path's
+// prediction is the map's own (pose 0's prior fixes nothing relative).
+TEST(SparsePoseGraphSolver, PathPredictionOfAChainIsTheMapsPrediction) {
+  SparsePoseGraphSolver solver(2);
+  const int loop = straightChainWithLoopClosure(100.0, &solver);
+  const std::vector<int> path = solver.shortestPath(0, 4, {loop});
+  ASSERT_EQ(path.size(), 4u);
+  const double s0 = solver.varianceFactor(0, {loop});
+  const SparsePoseGraphSolver::Prediction along = solver.predictAlongPath(loop, path, s0);
+  const SparsePoseGraphSolver::Prediction map = solver.predict({loop}, 0)[0];
+  EXPECT_TRUE(along.residual.isApprox(map.residual, 1e-12));
+  EXPECT_TRUE(along.covariance.isApprox(map.covariance, 1e-9)) << along.covariance << "\n" << map.covariance;
+  // A path that does not join the endpoints predicts nothing.
+  EXPECT_FALSE(solver.predictAlongPath(loop, {path[0], path[1]}, s0).covariance.allFinite());
+  EXPECT_FALSE(solver.predictAlongPath(loop, {path[1], path[2], path[3]}, s0).covariance.allFinite());
+}
+
+// The path crosses the fewest full-weight factors: a loop closure is a
+// shortcut, one of weight w counts 1/w, and what the map leaves out of its
+// linear system (judged, dormant, disabled) is no path.
+TEST(SparsePoseGraphSolver, ShortestPathTakesFullWeightShortcuts) {
+  SparsePoseGraphSolver solver(2);
+  const int judged = straightChainWithLoopClosure(100.0, &solver);
+  const int shortcut = solver.addFactor(0, 3, Pose::fromSE2(3, 0, 0), 100.0 * Eigen::Matrix3d::Identity(),
+                                        FactorMode::kRobust);
+  EXPECT_EQ(solver.shortestPath(0, 4, {}), std::vector<int>{judged});
+  EXPECT_EQ(solver.shortestPath(0, 4, {judged}), (std::vector<int>{shortcut, 4}));
+  EXPECT_EQ(solver.shortestPath(4, 0, {judged}), (std::vector<int>{4, shortcut}));
+  solver.setDormant(shortcut, true);
+  EXPECT_EQ(solver.shortestPath(0, 4, {judged}).size(), 4u);
+  solver.setDormant(shortcut, false);
+  solver.setMode(shortcut, FactorMode::kDisabled);
+  EXPECT_EQ(solver.shortestPath(0, 4, {judged}).size(), 4u);
+  // 20 sigma off at mu = 1 (weight 5e-4), the shortcut counts more than
+  // the three odometry steps it spans.
+  solver.setMode(shortcut, FactorMode::kRobust);
+  solver.setMu(shortcut, 1.0);
+  solver.setPose(3, Pose::fromSE2(3, 2, 0));
+  solver.setPose(4, Pose::fromSE2(4, 2, 0));
+  EXPECT_LT(solver.weight(shortcut), 1.0 / 3.0);
+  EXPECT_EQ(solver.shortestPath(0, 4, {judged}).size(), 4u);
+  // Disconnected poses have no path.
+  solver.addPose(Pose::fromSE2(9, 9, 0));
+  EXPECT_TRUE(solver.shortestPath(0, 5, {}).empty());
+}
+
+// The map has more than any one path: its covariance of a factor lies
+// between the variance factor times I and the path's prediction. Two laps
+// of a circle (in 3-D with some roll, pitch and height), odometry and loop
+// closures between the laps perturbed by a fixed pattern, solved first.
+TEST(SparsePoseGraphSolver, PathPredictionBoundsTheMapsFromAbove) {
+  for (const int dimension : {2, 3}) {
+    SCOPED_TRACE(dimension);
+    const int n = dimension == 2 ? 3 : 6, lap = 24;
+    const auto truth = [dimension](int i) {
+      const double t = 2.0 * M_PI * i / lap;
+      if (dimension == 2) return Pose::fromSE2(10.0 * std::cos(t), 10.0 * std::sin(t), t + M_PI / 2);
+      return Pose::fromXYZRPY(10.0 * std::cos(t), 10.0 * std::sin(t), 0.5 * std::sin(3 * t), 0.1 * std::sin(t),
+                              0.05 * std::cos(2 * t), t + M_PI / 2);
+    };
+    const auto perturbed = [dimension](const Pose& z, int k) {
+      const double e = 0.02 * std::sin(1.7 * k);
+      return z * (dimension == 2 ? Pose::fromSE2(e, -e, 0.5 * e) : Pose::fromXYZRPY(e, -e, e, 0.5 * e, -e, e));
+    };
+    SparsePoseGraphSolver solver(dimension);
+    for (int i = 0; i <= 2 * lap; ++i) solver.addPose(truth(i));
+    const Eigen::MatrixXd information = 400.0 * Eigen::MatrixXd::Identity(n, n);
+    solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, truth(0), 1e6 * Eigen::MatrixXd::Identity(n, n),
+                     FactorMode::kPlain);
+    for (int i = 0; i < 2 * lap; ++i)
+      solver.addFactor(i, i + 1, perturbed(truth(i).inverse() * truth(i + 1), i), information, FactorMode::kPlain);
+    std::vector<std::pair<int, int>> loops;  // factor, older endpoint
+    for (int i = 2; i <= lap; i += 2) {
+      const int k = solver.addFactor(i, i + lap, perturbed(truth(i).inverse() * truth(i + lap), 100 + i),
+                                     information, FactorMode::kRobust);
+      loops.push_back({k, i});
+    }
+    for (int k = 0; k < 10; ++k) solver.iterate(0);
+    for (const auto& [judged, older] : loops) {
+      const std::vector<int> path = solver.shortestPath(older, older + lap, {judged});
+      ASSERT_FALSE(path.empty());
+      EXPECT_LT(path.size(), static_cast<size_t>(lap));  // through another loop closure
+      const SparsePoseGraphSolver::Prediction map = solver.predict({judged}, 0)[0];
+      const double s0 = solver.varianceFactor(0, {judged});
+      const SparsePoseGraphSolver::Prediction along = solver.predictAlongPath(judged, path, s0);
+      EXPECT_TRUE(along.residual.isApprox(map.residual, 1e-12));
+      const Eigen::MatrixXd above = along.covariance - map.covariance;
+      const Eigen::MatrixXd below = map.covariance - s0 * Eigen::MatrixXd::Identity(n, n);
+      EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(above).eigenvalues().minCoeff(), -1e-9);
+      EXPECT_GT(Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(below).eigenvalues().minCoeff(), -1e-9);
+      // ... and strictly above: the other loop closures tighten the map.
+      EXPECT_GT(above.trace(), 1e-3 * map.covariance.trace());
+    }
+  }
 }
 
 // The variance factor of a part of the graph, as the pairwise test of

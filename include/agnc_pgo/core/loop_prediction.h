@@ -45,6 +45,13 @@ double logChanceVolume(const Eigen::VectorXd& extent, const Eigen::MatrixXd& inf
 double logPredictionOdds(const Eigen::VectorXd& residual, const Eigen::MatrixXd& covariance,
                          double log_chance_volume);
 
+// An upper bound on logPredictionOdds(residual, S, log V) over every S
+// with floor * I <= S <= ceiling: the Mahalanobis distance is at least the
+// one under the ceiling, the log-determinant at least d log floor. +inf if
+// the ceiling is not finite and positive definite.
+double logPredictionOddsBound(const Eigen::VectorXd& residual, const Eigen::MatrixXd& ceiling, double floor,
+                              double log_chance_volume);
+
 // The extent of the poses in the factor's tangent order: per axis, max -
 // min of the positions; then the arc that holds every heading (SE(2)), or
 // of roll, pitch and yaw (SE(3); roll and yaw on the circle, pitch on

@@ -129,7 +129,23 @@ class SparsePoseGraphSolver {
     Eigen::VectorXd residual;
     Eigen::MatrixXd covariance;
   };
-  std::vector<Prediction> predict(const std::vector<int>& factors, int first_variable);
+  // `without`: further factors left out of H and of s0^2 (those judged
+  // with these ones).
+  std::vector<Prediction> predict(const std::vector<int>& factors, int first_variable,
+                                  const std::vector<int>& without = {});
+  // The covariance predict() would give the factor if only the factors of
+  // `path` held its endpoints: a path from its older endpoint to its newer
+  // one (shortestPath), the older endpoint fixed; times the given variance
+  // factor, with the residual at the current estimate. Information only
+  // tightens a covariance, so at the same estimate and variance factor
+  // predict()'s covariance lies between variance_factor * I and this one,
+  // found without a factorisation in time linear in the path. Infinite if
+  // the path does not join the endpoints or holds a factor of no weight.
+  Prediction predictAlongPath(int factor, const std::vector<int>& path, double variance_factor) const;
+  // The factors of the path from pose `from` to pose `to` that crosses the
+  // fewest full-weight factors (a factor of kernel weight w counts 1/w),
+  // over the factors predict() linearises but `without`; empty if none.
+  std::vector<int> shortestPath(int from, int to, const std::vector<int>& without) const;
   // The a-posteriori variance of unit weight over the factors with an
   // endpoint >= first_variable but `without` (those being judged) and the
   // dormant ones, at the current estimate, as predict() uses for its
@@ -187,6 +203,7 @@ class SparsePoseGraphSolver {
   PoseBlock anchor_;
   std::vector<PoseBlock> blocks_;
   std::vector<Factor> factors_;
+  std::vector<std::vector<int>> incident_;  // per pose, the factors between it and another pose
 
   // Cached structure (rebuilt when the window or the graph changes).
   int structure_first_ = -1, structure_poses_ = -1, structure_factors_ = -1;
