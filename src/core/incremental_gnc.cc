@@ -423,11 +423,12 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   const Eigen::VectorXd extent = mapExtent(dimension_, poses());
   std::vector<double> log_volume(loops.size());
   std::vector<int> undecided, undecided_factors;
+  SparsePoseGraphSolver::PathSearch paths = solver_.pathSearch(factors);
   for (size_t i = 0; i < loops.size(); ++i) {
     const Edge& e = loops_[loops[i]].edge;
     log_volume[i] = logChanceVolume(extent, e.information);
     const SparsePoseGraphSolver::Prediction along_path =
-        solver_.predictAlongPath(factors[i], solver_.shortestPath(olderEnd(e), newerEnd(e), factors), variance_factor);
+        solver_.predictAlongPath(factors[i], solver_.findShortestPath(&paths, olderEnd(e), newerEnd(e)), variance_factor);
     if (logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume[i]) <= 0.0) continue;
     undecided.push_back(static_cast<int>(i));
     undecided_factors.push_back(factors[i]);

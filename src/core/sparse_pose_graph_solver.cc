@@ -433,38 +433,75 @@ SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPath(int fa
 }
 
 std::vector<int> SparsePoseGraphSolver::shortestPath(int from, int to, const std::vector<int>& without) const {
+  PathSearch search = pathSearch(without);
+  return findShortestPath(&search, from, to);
+}
+
+SparsePoseGraphSolver::PathSearch SparsePoseGraphSolver::pathSearch(const std::vector<int>& without) const {
+  PathSearch search;
+  // Lengths are found as searches reach the factors: a search from a
+  // near endpoint touches a small part of the map.
+  search.factor_length.assign(factors_.size(), std::numeric_limits<double>::quiet_NaN());
+  for (int k : without) search.factor_length[k] = std::numeric_limits<double>::infinity();
+  search.reached.assign(blocks_.size(), std::numeric_limits<double>::infinity());
+  search.via.assign(blocks_.size(), -1);
+  search.visit.assign(blocks_.size(), 0);
+  search.done.assign(blocks_.size(), 0);
+  return search;
+}
+
+std::vector<int> SparsePoseGraphSolver::findShortestPath(PathSearch* search, int from, int to) const {
   // Dijkstra from `from`, stopping at `to`.
-  std::vector<char> left_out(factors_.size(), 0);
-  for (int k : without) left_out[k] = 1;
-  const double unreached = std::numeric_limits<double>::infinity();
-  std::vector<double> length(blocks_.size(), unreached);
-  std::vector<int> via(blocks_.size(), -1);
+  const int poses = numPoses();
+  if (static_cast<int>(search->reached.size()) < poses) {
+    search->reached.resize(poses);
+    search->via.resize(poses);
+    search->visit.resize(poses, 0);
+    search->done.resize(poses, 0);
+  }
+  if (search->factor_length.size() < factors_.size())
+    search->factor_length.resize(factors_.size(), std::numeric_limits<double>::quiet_NaN());
+  const unsigned id = ++search->search;
+  auto reached = [&](int p) {
+    return search->visit[p] == id ? search->reached[p] : std::numeric_limits<double>::infinity();
+  };
+  auto length_of = [&](int k) {
+    double& length = search->factor_length[k];
+    if (std::isnan(length)) {
+      const Factor& f = factors_[k];
+      const double w = f.dormant || f.mode == FactorMode::kDisabled ? 0.0 : weight(k);
+      length = w > 0.0 ? 1.0 / w : std::numeric_limits<double>::infinity();
+    }
+    return length;
+  };
   using Entry = std::pair<double, int>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
-  length[from] = 0.0;
+  search->visit[from] = id;
+  search->reached[from] = 0.0;
   queue.push({0.0, from});
   while (!queue.empty()) {
-    const auto [l, p] = queue.top();
+    const int p = queue.top().second;
     queue.pop();
     if (p == to) break;
-    if (l > length[p]) continue;
+    if (search->done[p] == id) continue;  // reached again on a shorter path, expanded then
+    search->done[p] = id;
+    const double l = reached(p);
     for (int k : incident_[p]) {
-      const Factor& f = factors_[k];
-      if (left_out[k] || f.dormant || f.mode == FactorMode::kDisabled) continue;
-      const int q = f.a == p ? f.b : f.a;
-      if (l + 1.0 >= length[q]) continue;  // no factor counts less than 1
-      const double w = weight(k);
-      if (!(w > 0.0) || l + 1.0 / w >= length[q]) continue;
-      length[q] = l + 1.0 / w;
-      via[q] = k;
-      queue.push({length[q], q});
+      const int q = factors_[k].a == p ? factors_[k].b : factors_[k].a;
+      if (l + 1.0 >= reached(q)) continue;  // no factor counts less than 1
+      const double length = l + length_of(k);
+      if (!(length < reached(q))) continue;
+      search->visit[q] = id;
+      search->reached[q] = length;
+      search->via[q] = k;
+      queue.push({length, q});
     }
   }
   std::vector<int> path;
-  if (length[to] == unreached) return path;
+  if (reached(to) == std::numeric_limits<double>::infinity()) return path;
   for (int p = to; p != from;) {
-    const Factor& f = factors_[via[p]];
-    path.push_back(via[p]);
+    const Factor& f = factors_[search->via[p]];
+    path.push_back(search->via[p]);
     p = f.a == p ? f.b : f.a;
   }
   std::reverse(path.begin(), path.end());

@@ -12,6 +12,8 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <utility>
+#include <vector>
 
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
@@ -264,6 +266,10 @@ TEST(SparsePoseGraphSolver, ShortestPathTakesFullWeightShortcuts) {
   // Disconnected poses have no path.
   solver.addPose(Pose::fromSE2(9, 9, 0));
   EXPECT_TRUE(solver.shortestPath(0, 5, {}).empty());
+  // One search state serves many searches at one estimate, each as if alone.
+  SparsePoseGraphSolver::PathSearch search = solver.pathSearch({judged});
+  for (const auto& [from, to] : std::vector<std::pair<int, int>>{{0, 4}, {4, 0}, {0, 5}, {1, 3}, {0, 4}, {2, 2}})
+    EXPECT_EQ(solver.findShortestPath(&search, from, to), solver.shortestPath(from, to, {judged})) << from << " " << to;
 }
 
 // The map has more than any one path: its covariance of a factor lies

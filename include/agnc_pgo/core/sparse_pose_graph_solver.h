@@ -146,6 +146,20 @@ class SparsePoseGraphSolver {
   // fewest full-weight factors (a factor of kernel weight w counts 1/w),
   // over the factors predict() linearises but `without`; empty if none.
   std::vector<int> shortestPath(int from, int to, const std::vector<int>& without) const;
+  // What many findShortestPath() searches at one estimate share: each factor's
+  // length, found once, and scratch space reused between searches. Valid
+  // while the estimate and the factors' modes, mu and dormancy stay as they
+  // were when pathSearch() made it.
+  struct PathSearch {
+    std::vector<double> factor_length;  // 1/w, infinite where no path may pass; NaN: not found yet
+    std::vector<double> reached;  // per pose, length of the shortest path found
+    std::vector<int> via;         // per pose, the last factor of that path
+    std::vector<unsigned> visit;  // per pose, the search that last reached it
+    std::vector<unsigned> done;   // per pose, the search that last expanded it
+    unsigned search = 0;
+  };
+  PathSearch pathSearch(const std::vector<int>& without) const;
+  std::vector<int> findShortestPath(PathSearch* search, int from, int to) const;
   // The a-posteriori variance of unit weight over the factors with an
   // endpoint >= first_variable but `without` (those being judged) and the
   // dormant ones, at the current estimate, as predict() uses for its
