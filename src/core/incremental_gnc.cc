@@ -420,7 +420,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   // outlier far off usually is); the others are predicted by the map. The
   // variance factor is the one the map's prediction uses.
   const double variance_factor = solver_.varianceFactor(first, factors);
-  const Eigen::VectorXd extent = mapExtent(dimension_, poses());
+  const Eigen::VectorXd extent = mapExtent(dimension_, solver_.blocks());
   std::vector<double> log_volume(loops.size());
   std::vector<int> undecided, undecided_factors;
   SparsePoseGraphSolver::PathSearch paths = solver_.pathSearch(factors);

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Geometry>
 
 namespace agnc_pgo {
 namespace core {
@@ -42,31 +43,63 @@ double logPredictionOddsBound(const Eigen::VectorXd& residual, const Eigen::Matr
 
 double circularExtent(std::vector<double> angles) {
   if (angles.empty()) return 0.0;
-  for (double& a : angles) a = std::remainder(a, 2.0 * M_PI);
-  std::sort(angles.begin(), angles.end());
-  // The arc is the circle less its largest gap between neighbouring angles.
-  double gap = angles.front() + 2.0 * M_PI - angles.back();
-  for (size_t k = 1; k < angles.size(); ++k) gap = std::max(gap, angles[k] - angles[k - 1]);
+  double low = std::numeric_limits<double>::infinity(), high = -low;
+  for (double& a : angles) {
+    a = std::remainder(a, 2.0 * M_PI);
+    low = std::min(low, a);
+    high = std::max(high, a);
+  }
+  // The arc is the circle less its largest gap between neighbouring angles,
+  // found without sorting (the maximum-gap problem): between the lowest and
+  // the highest of n angles the largest gap is at least (high - low) /
+  // (n - 1), wider than each of n equal buckets, so it runs from the
+  // highest angle of a non-empty bucket to the lowest of the next.
+  double gap = low + 2.0 * M_PI - high;
+  const size_t buckets = angles.size();
+  if (buckets > 1 && high > low) {
+    const double width = (high - low) / static_cast<double>(buckets);
+    std::vector<double> bucket_low(buckets, std::numeric_limits<double>::infinity());
+    std::vector<double> bucket_high(buckets, -std::numeric_limits<double>::infinity());
+    for (double a : angles) {
+      const size_t k = std::min(buckets - 1, static_cast<size_t>((a - low) / width));
+      bucket_low[k] = std::min(bucket_low[k], a);
+      bucket_high[k] = std::max(bucket_high[k], a);
+    }
+    double previous = bucket_high[0];
+    for (size_t k = 1; k < buckets; ++k) {
+      if (bucket_low[k] > bucket_high[k]) continue;  // empty
+      gap = std::max(gap, bucket_low[k] - previous);
+      previous = bucket_high[k];
+    }
+  }
   return 2.0 * M_PI - gap;
 }
 
 Eigen::VectorXd mapExtent(int dimension, const Poses& poses) {
+  std::vector<PoseBlock> blocks;
+  blocks.reserve(poses.size());
+  for (const Pose& p : poses) blocks.push_back(toBlock(dimension, p));
+  return mapExtent(dimension, blocks);
+}
+
+Eigen::VectorXd mapExtent(int dimension, const std::vector<PoseBlock>& blocks) {
   const int tangent = dimension == 2 ? 3 : 6;
   Eigen::VectorXd extent = Eigen::VectorXd::Zero(tangent);
-  if (poses.empty()) return extent;
+  if (blocks.empty()) return extent;
   Eigen::VectorXd low = Eigen::VectorXd::Constant(dimension, std::numeric_limits<double>::infinity());
   Eigen::VectorXd high = -low;
   std::vector<std::vector<double>> angles(dimension == 2 ? 1 : 3);
   double pitch_low = M_PI, pitch_high = -M_PI;
-  for (const Pose& p : poses) {
-    low = low.cwiseMin(p.translation.head(dimension));
-    high = high.cwiseMax(p.translation.head(dimension));
+  for (const PoseBlock& b : blocks) {
+    const Eigen::Map<const Eigen::VectorXd> position(b.data(), dimension);
+    low = low.cwiseMin(position);
+    high = high.cwiseMax(position);
     if (dimension == 2) {
-      angles[0].push_back(p.yaw());
+      angles[0].push_back(b[2]);
       continue;
     }
     // Z-Y-X angles: R = Rz(yaw) Ry(pitch) Rx(roll), pitch in [-pi/2, pi/2].
-    const Eigen::Matrix3d r = p.rotation.toRotationMatrix();
+    const Eigen::Matrix3d r = Eigen::Quaterniond(b[6], b[3], b[4], b[5]).normalized().toRotationMatrix();
     const double yaw = std::atan2(r(1, 0), r(0, 0));
     const double pitch = std::asin(std::max(-1.0, std::min(1.0, -r(2, 0))));
     const double roll = std::atan2(r(2, 1), r(2, 2));

@@ -2,7 +2,10 @@
 // likelihood ratio of loop_prediction.h, against values computed by hand.
 #include "agnc_pgo/core/loop_prediction.h"
 
+#include <algorithm>
 #include <cmath>
+#include <random>
+#include <vector>
 #include <cstdlib>
 
 #include <gtest/gtest.h>
@@ -88,6 +91,34 @@ TEST(LoopPrediction, ExtentIsPerAxisAndHeadingsLieOnTheCircle) {
   EXPECT_TRUE(mapExtent(2, poses).isApprox(Eigen::Vector3d(5.0, 5.0, 40 * deg)));
   EXPECT_EQ(mapExtent(2, Poses()).size(), 3);
   EXPECT_NEAR(circularExtent({0.0, M_PI / 2, M_PI, -M_PI / 2}), 1.5 * M_PI, 1e-12);
+}
+
+TEST(LoopPrediction, CircularExtentIsTheCircleLessItsLargestGap) {
+  // Against the definition: sorted, the largest gap between neighbours
+  // (the one across +-pi included), for clustered, spread, repeated and
+  // evenly spaced angles.
+  const auto by_sorting = [](std::vector<double> angles) {
+    for (double& a : angles) a = std::remainder(a, 2.0 * M_PI);
+    std::sort(angles.begin(), angles.end());
+    double gap = angles.front() + 2.0 * M_PI - angles.back();
+    for (size_t k = 1; k < angles.size(); ++k) gap = std::max(gap, angles[k] - angles[k - 1]);
+    return 2.0 * M_PI - gap;
+  };
+  std::mt19937 random(7);
+  for (int trial = 0; trial < 200; ++trial) {
+    const int n = 1 + trial % 40;
+    const double centre = std::uniform_real_distribution<double>(-M_PI, M_PI)(random);
+    const double spread = std::uniform_real_distribution<double>(0.0, 4.0)(random);
+    std::normal_distribution<double> around(centre, spread);
+    std::vector<double> angles;
+    for (int i = 0; i < n; ++i) angles.push_back(trial % 7 == 0 && i % 2 ? angles.back() : around(random));
+    EXPECT_NEAR(circularExtent(angles), by_sorting(angles), 1e-12) << "trial " << trial;
+  }
+  std::vector<double> even;
+  for (int i = 0; i < 12; ++i) even.push_back(i * M_PI / 6);
+  EXPECT_NEAR(circularExtent(even), 11 * M_PI / 6, 1e-12);
+  EXPECT_EQ(circularExtent({0.3}), 0.0);
+  EXPECT_EQ(circularExtent({0.3, 0.3}), 0.0);
 }
 
 TEST(LoopPrediction, AGroundVehicleSpansYawButHardlyRollAndPitch) {

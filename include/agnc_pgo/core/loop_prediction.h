@@ -31,6 +31,7 @@
 #include <Eigen/Core>
 
 #include "agnc_pgo/core/pose.h"
+#include "agnc_pgo/core/pose_manifolds.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -57,6 +58,9 @@ double logPredictionOddsBound(const Eigen::VectorXd& residual, const Eigen::Matr
 // of roll, pitch and yaw (SE(3); roll and yaw on the circle, pitch on
 // [-pi/2, pi/2]).
 Eigen::VectorXd mapExtent(int dimension, const Poses& poses);
+// The same over the solver's parameter blocks (pose_manifolds.h), which
+// hold the heading of an SE(2) pose as it is: no conversion per pose.
+Eigen::VectorXd mapExtent(int dimension, const std::vector<PoseBlock>& blocks);
 
 // The shortest arc of the circle that holds every angle (0 for none).
 double circularExtent(std::vector<double> angles);

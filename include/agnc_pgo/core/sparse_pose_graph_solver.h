@@ -63,6 +63,8 @@ class SparsePoseGraphSolver {
   int addPose(const Pose& initial);
   Pose pose(int id) const { return fromBlock(dimension_, blocks_[id]); }
   void setPose(int id, const Pose& pose) { blocks_[id] = toBlock(dimension_, pose); }
+  // The estimate as the solver holds it (pose_manifolds.h), one block per pose.
+  const std::vector<PoseBlock>& blocks() const { return blocks_; }
 
   // A factor on the pose of `b` relative to `a` (a may be kAnchor for a
   // prior: then z is the prior value). Throws std::invalid_argument on a
