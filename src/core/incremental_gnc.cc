@@ -201,21 +201,22 @@ void IncrementalGnc::finishAt(LoopClosure* loop, double mu) {
 
 // ---------------------------------------------------------------- update()
 
-UpdateStats IncrementalGnc::update() {
+UpdateStats IncrementalGnc::update(const std::function<void()>& first_estimate) {
   UpdateStats stats;
+  std::function<void()> not_called_yet = first_estimate;
   // A loop closure the map explained tightens the map around its cycle:
   // those rejected there because the map could not tell are judged again,
   // and land in another pass if it now explains them.
   for (bool first = true; !pending_.empty() || !needs_restart_.empty(); first = false) {
     UpdateStats pass;
-    std::vector<int> next = updatePass(&pass);
+    std::vector<int> next = updatePass(&pass, &not_called_yet);
     stats = first ? pass : combined(stats, pass);
     pending_ = std::move(next);
   }
   return stats;
 }
 
-std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats) {
+std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<void()>* first_estimate) {
   // Every pass starts with a small trust region that grows only while the
   // steps agree with the model (see GncOptions::InnerSolver::trust_region_radius).
   solver_.resetTrustRegion();
@@ -240,10 +241,16 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats) {
     runGncSteps(&plan, stats);
     settle(plan.first, maxSettleIterations(), plan.last_step, stats);
     rolled_back = trial && solver_.objective(plan.first) > before.objective;
-    if (rolled_back)
+    if (rolled_back) {
       next = rollBack(before, plan);
-    else
-      refine(plan, window_before, stats);
+    } else {
+      const bool refines = needsRefinement(plan, window_before);
+      if (*first_estimate && (refines || !plan.explained.empty())) {
+        (*first_estimate)();
+        *first_estimate = nullptr;
+      }
+      if (refines) refine(stats);
+    }
   }
   if (!rolled_back) {
     finish(plan, *stats);
@@ -594,7 +601,7 @@ int IncrementalGnc::maxSettleIterations() const {
              : options_.solver.max_settle_iterations;
 }
 
-void IncrementalGnc::refine(const UpdatePlan& plan, const Poses& window_before, UpdateStats* stats) {
+bool IncrementalGnc::needsRefinement(const UpdatePlan& plan, const Poses& window_before) {
   // The window held older poses fixed. If the update moved the estimate, let
   // the whole graph follow (the correction belongs to every pose, not only to
   // those in the window). "Moved" is judged as a whole-graph solve would be --
@@ -605,10 +612,13 @@ void IncrementalGnc::refine(const UpdatePlan& plan, const Poses& window_before, 
   // that pulled the window at a small mu and was then rejected moved it
   // there and back, which calls for no refinement.
   if (plan.first == 0) unrefined_step_ = 0.0;
-  if (!mayRefine(plan)) return;
+  if (!mayRefine(plan)) return false;
   for (int i = plan.first; i < numPoses(); ++i)
     unrefined_step_ += displacement(window_before[i - plan.first], solver_.pose(i));
-  if (unrefined_step_ / numPoses() < options_.solver.convergence_step) return;
+  return unrefined_step_ / numPoses() >= options_.solver.convergence_step;
+}
+
+void IncrementalGnc::refine(UpdateStats* stats) {
   const int before = stats->iterations;
   settle(0, maxSettleIterations(), std::numeric_limits<double>::infinity(), stats);
   stats->refinement_iterations = stats->iterations - before;

@@ -175,6 +175,44 @@ TEST(IncrementalGnc, WindowReachesAtMostMaxWindowPosesBackFromTheNewerEndpoint) 
   EXPECT_EQ(engine.update().first_variable, 11);  // 20 + 1 - 10
 }
 
+// Anytime: the first estimate is the window's result, reported before the
+// whole graph follows it; the update ends where it would without the report.
+TEST(IncrementalGnc, FirstEstimateIsTheWindowsResultBeforeTheWholeGraphFollows) {
+  GncOptions options;
+  options.window.max_poses = 10;
+  GncOptions window_only = options;
+  window_only.window.global_refinement = false;
+  auto reported = corridorEngine(options);
+  auto silent = corridorEngine(options);
+  auto unrefined = corridorEngine(window_only);
+  const Edge short_by_30cm = edge(2, 49, Pose::fromSE2(46.7, 0, 0));
+  for (auto* engine : {reported.get(), silent.get(), unrefined.get()}) engine->addLoopClosure(short_by_30cm);
+
+  int calls = 0;
+  Poses first;
+  const UpdateStats stats = reported->update([&] {
+    ++calls;
+    first = reported->poses();
+  });
+  silent->update();
+  unrefined->update();
+  EXPECT_EQ(calls, 1);
+  EXPECT_GT(stats.refinement_iterations, 0);
+  ASSERT_EQ(first.size(), 50u);
+  for (int i = 0; i < 50; ++i) {
+    EXPECT_EQ(first[i].translation, unrefined->pose(i).translation) << "pose " << i;
+    EXPECT_EQ(reported->pose(i).translation, silent->pose(i).translation) << "pose " << i;
+  }
+  // The refinement after it moved the older poses too.
+  EXPECT_GT((reported->pose(20).translation - first[20].translation).norm(), 1e-3);
+  EXPECT_TRUE(reported->loopClosures()[0].inlier);
+
+  // Nothing left after the window: nothing to report early.
+  unrefined->addLoopClosure(edge(40, 49, Pose::fromSE2(9.0, 0, 0)));
+  unrefined->update([&] { ++calls; });
+  EXPECT_EQ(calls, 1);
+}
+
 TEST(IncrementalGnc, UnboundedWindowStartsAtTheOlderEndpoint) {
   GncOptions options;
   options.window.max_poses = 0;

@@ -86,7 +86,15 @@ class IncrementalGnc {
   // (SparsePoseGraphSolver::objective) than the estimate before it, the
   // estimate and every loop closure's state return to what they were, the
   // landed ones are rejected and the other new ones are judged again.
-  UpdateStats update();
+  //
+  // Anytime: `first_estimate`, if given, is called (on this thread, at most
+  // once) as soon as the estimate holds every new loop closure's effect on
+  // its window, when work that does not change that effect is still to
+  // come -- the whole-graph refinement that lets the older poses follow, or
+  // another pass for loop closures the landing made explicable. The caller
+  // may read poses() there and publish them (loop closures are classified
+  // only when update() returns). The results are the same with or without it.
+  UpdateStats update(const std::function<void()>& first_estimate = {});
   // Iterates on the whole graph until convergence (at most `max_iterations`).
   UpdateStats optimize(int max_iterations = 20);
 
@@ -149,7 +157,9 @@ class IncrementalGnc {
   // to date; returns what the next pass judges: the loop closures rejected
   // as unexplained that a far one the map explained makes worth judging
   // again, or after a failed trial the other new ones.
-  std::vector<int> updatePass(UpdateStats* stats);
+  // Calls and clears *first_estimate (update()) once the pass's window
+  // result stands, if work is left after it.
+  std::vector<int> updatePass(UpdateStats* stats, std::function<void()>* first_estimate);
   Snapshot snapshot(int first) const;
   // Returns to `before`, rejects the far loop closures the trial landed and
   // returns the other pending ones, to be judged again.
@@ -171,7 +181,10 @@ class IncrementalGnc {
   void planWindow(UpdatePlan* plan) const;
   void selectGraduating(UpdatePlan* plan);
   void runGncSteps(UpdatePlan* plan, UpdateStats* stats);
-  void refine(const UpdatePlan& plan, const Poses& window_before, UpdateStats* stats);
+  // Adds what the window moved to the displacement not yet refined; true
+  // if it calls for the whole-graph refinement (refine()).
+  bool needsRefinement(const UpdatePlan& plan, const Poses& window_before);
+  void refine(UpdateStats* stats);
   void finish(const UpdatePlan& plan, const UpdateStats& stats);
 
   void validateEdge(const Edge& edge, bool allow_new_pose) const;

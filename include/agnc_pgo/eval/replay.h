@@ -39,6 +39,9 @@ struct ReplayResult {
   double mean_free_poses = 0;   // average number of free poses per solve
   std::vector<int> solves_per_update_histogram;  // [k] = updates that took k solves
   std::vector<double> loop_update_ms;    // one per update that had loop closures
+  // ... and the time to its first estimate (IncrementalGnc::update()'s
+  // anytime callback; the whole update where nothing was left after it).
+  std::vector<double> first_estimate_ms;
   std::vector<int> loop_update_poses;    // graph size at each of those updates
   std::vector<UpdateStats> loop_update_stats;  // what each of those updates did
   ClassificationCounts counts;
