@@ -250,8 +250,12 @@ void BackendGraph::noteDecisions() {
   }
 }
 
-bool BackendGraph::update(core::UpdateStats* stats, std::string* error) {
-  return guardedSolve("update", [this] { return engine_->update(); }, stats, error);
+bool BackendGraph::update(core::UpdateStats* stats, std::string* error, const std::function<void()>& first_estimate) {
+  return guardedSolve("update", [&] {
+    return engine_->update([&] {
+      if (first_estimate && finitePoses(*engine_)) first_estimate();
+    });
+  }, stats, error);
 }
 
 bool BackendGraph::optimize(core::UpdateStats* stats, std::string* error) {

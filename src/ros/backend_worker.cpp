@@ -260,7 +260,8 @@ void BackendWorker::solve() {
   core::UpdateStats stats;
   std::string error;
   const double start = now();
-  const bool ok = graph_.update(&stats, &error);
+  first_published_ = false;
+  const bool ok = graph_.update(&stats, &error, [this] { publishFirstEstimate(); });
   const double end = now();
   {
     std::lock_guard<std::mutex> lock(counters_mutex_);
@@ -273,8 +274,28 @@ void BackendWorker::solve() {
   graph_dirty_ = true;
   publish(false);
   const double published = now();
-  for (double received : pending_latency_) latencies_ms_.add((published - received) * 1e3);
+  for (double received : pending_latency_) {
+    latencies_ms_.add((published - received) * 1e3);
+    if (!first_published_) first_latencies_ms_.add((published - received) * 1e3);
+  }
   pending_latency_.clear();
+}
+
+void BackendWorker::publishFirstEstimate() {
+  // The window holds the update's correction; the rest of the update (the
+  // whole graph following it) does not change it much, and can take long on
+  // a large map. If the update fails after this, its end publishes the last
+  // good estimate again.
+  {
+    std::lock_guard<std::mutex> lock(map_to_odom_mutex_);
+    map_to_odom_ = graph_.mapToOdom();
+  }
+  output_->publishEstimate(*graph_.snapshot(false));
+  const double published = now();
+  for (double received : pending_latency_) first_latencies_ms_.add((published - received) * 1e3);
+  first_published_ = true;
+  std::lock_guard<std::mutex> lock(counters_mutex_);
+  ++counters_.first_estimates;
 }
 
 void BackendWorker::publish(bool full) {
@@ -316,6 +337,9 @@ StatusInfo BackendWorker::status() const {
   s.latency_p50 = latencies_ms_.percentile(50);
   s.latency_p95 = latencies_ms_.percentile(95);
   s.latency_max = latencies_ms_.max();
+  s.first_latency_p50 = first_latencies_ms_.percentile(50);
+  s.first_latency_p95 = first_latencies_ms_.percentile(95);
+  s.first_latency_max = first_latencies_ms_.max();
   s.paused = paused_;
   return s;
 }
@@ -400,6 +424,7 @@ CommandResult BackendWorker::reset() {
     needs_update_ = false;
     pending_latency_.clear();
     latencies_ms_.clear();
+    first_latencies_ms_.clear();
     {
       std::lock_guard<std::mutex> lock(counters_mutex_);
       counters_ = Counters();

@@ -199,6 +199,10 @@ agnc_pgo::GraphStatus makeStatus(const StatusInfo& s) {
   msg.latency_ms_p50 = s.latency_p50;
   msg.latency_ms_p95 = s.latency_p95;
   msg.latency_ms_max = s.latency_max;
+  msg.first_estimate_latency_ms_p50 = s.first_latency_p50;
+  msg.first_estimate_latency_ms_p95 = s.first_latency_p95;
+  msg.first_estimate_latency_ms_max = s.first_latency_max;
+  msg.first_estimates = s.counters.first_estimates;
   msg.paused = s.paused;
   msg.last_warning = s.counters.last_warning;
   return msg;

@@ -75,6 +75,12 @@ class EndToEnd(unittest.TestCase):
         self.assertEqual(t.child_frame_id, "odom")
         self.assertGreater(s.total_gnc_steps, 0)
         self.assertGreater(s.latency_ms_max, 0.0)
+        # Anytime: no loop closure waits longer for its first estimate than
+        # for the finished update.
+        self.assertGreater(s.first_estimates, 0)  # Intel's corrections call for whole-graph refinements
+        self.assertGreater(s.first_estimate_latency_ms_max, 0.0)
+        self.assertLessEqual(s.first_estimate_latency_ms_max, s.latency_ms_max)
+        self.assertLessEqual(s.first_estimate_latency_ms_p95, s.latency_ms_p95)
         # map -> base_link through the player's odom -> base_link.
         tf_buffer.lookup_transform("map", "base_link", rospy.Time(0), rospy.Duration(5.0))
 

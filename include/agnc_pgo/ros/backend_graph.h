@@ -41,6 +41,7 @@ struct Counters {
   unsigned odometry_messages = 0, loop_closure_messages = 0;
   unsigned rejected_odometry = 0, rejected_loop_closures = 0, dropped_loop_closures = 0;
   unsigned failed_updates = 0;
+  unsigned first_estimates = 0;  // updates that published a first estimate (anytime)
   unsigned last_gnc_steps = 0;
   double last_update_ms = 0.0;
   std::string last_warning;
@@ -62,7 +63,9 @@ class BackendGraph {
   // Runs the engine if anything is pending. On an exception or a non-finite
   // estimate, rolls back to the last good estimate (dropping the loop
   // closures added since) and returns false with `error` set.
-  bool update(core::UpdateStats* stats, std::string* error);
+  // `first_estimate`: IncrementalGnc::update()'s anytime report, called
+  // only while every pose is finite.
+  bool update(core::UpdateStats* stats, std::string* error, const std::function<void()>& first_estimate = {});
   bool optimize(core::UpdateStats* stats, std::string* error);
   // Throws std::invalid_argument. Back to AUTO, the loop closures whose
   // classification differs from before the overrides graduate again (their

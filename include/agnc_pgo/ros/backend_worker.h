@@ -27,6 +27,7 @@ struct StatusInfo {
   ros::Time last_update;
   long total_gnc_steps = 0, total_iterations = 0;
   double latency_p50 = 0, latency_p95 = 0, latency_max = 0;
+  double first_latency_p50 = 0, first_latency_p95 = 0, first_latency_max = 0;  // to the first estimate
   bool paused = false;
 };
 
@@ -99,6 +100,8 @@ class BackendWorker {
   void processBatch(std::deque<Item>* batch);
   void solve();
   void publish(bool force_graph);
+  // The anytime first estimate of an update (~path, map -> odom).
+  void publishFirstEstimate();
   void publishStatus();
   StatusInfo status() const;
   // Logs a warning, throttled per kind (the text before its first ':'): at
@@ -133,6 +136,8 @@ class BackendWorker {
   ros::Time last_update_;
   std::vector<double> pending_latency_;  // receive times of loop closures not yet published
   LatencyHistogram latencies_ms_;  // bounded: a status costs O(1) however long the run
+  LatencyHistogram first_latencies_ms_;  // receive -> first estimate published
+  bool first_published_ = false;         // in the update running now
 
   struct WarningThrottle {
     double last_logged = -1e9;
