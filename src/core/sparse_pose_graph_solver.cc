@@ -31,6 +31,11 @@ constexpr double kShrink = 0.5;
 constexpr int kMaxDampingAttempts = 6;
 constexpr double kMinRadius = 1e-4;
 
+// A Gauss-Newton step found by conjugate gradients is taken once its
+// residual |H x - b| is this small relative to |b|: as exact as a solve
+// with a new factor, for the purposes of the step.
+constexpr double kStepTolerance = 1e-10;
+
 // CHOLMOD 3 (Debian 12's SuiteSparse 5.12) runs loops of its supernodal
 // factorisation on a team of 4 OpenMP threads fixed when it was compiled,
 // whatever OMP_NUM_THREADS says. On two cores they oversubscribe the machine
@@ -253,6 +258,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     if (s.coupled) locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
   }
   gradient_.resize(n);
+  factor_valid_ = false;
   if (supernodal_) {
     keepCholmodSerial();
     decompositions_->supernodal.analyzePattern(hessian_);
@@ -322,13 +328,75 @@ void SparsePoseGraphSolver::prepare(int first) {
 }
 
 bool SparsePoseGraphSolver::factorize() {
+  const double h_flops = 4.0 * static_cast<double>(hessian_.nonZeros());  // symmetric product, upper stored
+  ++factorizations_;
   if (supernodal_) {
     keepCholmodSerial();
     decompositions_->supernodal.factorize(hessian_);
-    return decompositions_->supernodal.info() == Eigen::Success;
+    factor_valid_ = decompositions_->supernodal.info() == Eigen::Success;
+    const cholmod_common& common = decompositions_->supernodal.cholmod();
+    factorization_flops_ = common.fl;
+    iteration_flops_ = 4.0 * common.lnz + h_flops;
+    return factor_valid_;
   }
   decompositions_->simplicial.factorize(hessian_);
-  return decompositions_->simplicial.info() == Eigen::Success;
+  factor_valid_ = decompositions_->simplicial.info() == Eigen::Success;
+  if (factor_valid_) {
+    // Cholesky costs the sum over L's columns of their squared lengths.
+    const Eigen::SparseMatrix<double>& l = decompositions_->simplicial.matrixL().nestedExpression();
+    factorization_flops_ = 0.0;
+    for (long j = 0; j < l.outerSize(); ++j) {
+      const double column = static_cast<double>(l.outerIndexPtr()[j + 1] - l.outerIndexPtr()[j]);
+      factorization_flops_ += column * column;
+    }
+    iteration_flops_ = 4.0 * static_cast<double>(l.nonZeros()) + h_flops;
+  }
+  return factor_valid_;
+}
+
+Eigen::VectorXd SparsePoseGraphSolver::gaussNewtonStep() {
+  const Eigen::VectorXd b = -gradient_;
+  Eigen::VectorXd step;
+  if (factor_valid_ && solveWithLastFactor(b, &step)) return step;
+  if (!factorize()) return Eigen::VectorXd();
+  return solve(b);
+}
+
+bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+  // A small system factorises for less than the first solve costs here.
+  if (2.0 * iteration_flops_ >= factorization_flops_) return false;
+  const auto h = hessian_.selfadjointView<Eigen::Upper>();
+  const double tolerance = kStepTolerance * b.norm();
+  *x = solve(b);
+  Eigen::VectorXd r = b - h * *x;
+  double spent = 2.0 * iteration_flops_;  // the first solve and residual
+  if (!x->allFinite()) return false;
+  if (r.norm() <= tolerance) return true;
+  const double first_residual = r.norm();
+  Eigen::VectorXd z = solve(r);
+  Eigen::VectorXd p = z;
+  double rz = r.dot(z);
+  for (int iteration = 1;; ++iteration) {
+    spent += iteration_flops_;
+    const Eigen::VectorXd hp = h * p;
+    const double curvature = p.dot(hp);
+    if (!(curvature > 0.0) || !(rz > 0.0)) return false;  // H not positive definite along p
+    const double alpha = rz / curvature;
+    *x += alpha * p;
+    r -= alpha * hp;
+    const double residual = r.norm();
+    if (residual <= tolerance) return x->allFinite();
+    // At the rate the residual has fallen so far, CG must reach the
+    // tolerance before it has cost a new factorisation.
+    const double rate = std::pow(residual / first_residual, 1.0 / iteration);
+    if (!(rate < 1.0)) return false;
+    const double needed = std::log(tolerance / residual) / std::log(rate);
+    if (spent + needed * iteration_flops_ >= factorization_flops_) return false;
+    z = solve(r);
+    const double rz_next = r.dot(z);
+    p = z + (rz_next / rz) * p;
+    rz = rz_next;
+  }
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
@@ -580,8 +648,7 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   result.cost_after = cost;
 
   saved_.assign(blocks_.begin() + first, blocks_.end());
-  Eigen::VectorXd gauss_newton;
-  if (factorize()) gauss_newton = solve(-gradient_);
+  Eigen::VectorXd gauss_newton = gaussNewtonStep();
   if (gauss_newton.size() == 0 || !gauss_newton.allFinite()) {
     // Singular system: fall back to steepest descent inside the trust region.
     gauss_newton = Eigen::VectorXd::Constant(gradient_.size(), std::numeric_limits<double>::infinity());

@@ -59,6 +59,8 @@ class SparsePoseGraphSolver {
   int dimension() const { return dimension_; }
   int numPoses() const { return static_cast<int>(blocks_.size()); }
   int numFactors() const { return static_cast<int>(factors_.size()); }
+  // Numeric factorisations so far (iterate() reuses the last one where it can).
+  long factorizations() const { return factorizations_; }
 
   int addPose(const Pose& initial);
   Pose pose(int id) const { return fromBlock(dimension_, blocks_[id]); }
@@ -199,6 +201,17 @@ class SparsePoseGraphSolver {
   void prepare(int first);
   // Factorises hessian_; false if it is not positive definite.
   bool factorize();
+  // The Gauss-Newton step -H^-1 g at the current linearisation: by
+  // conjugate gradients preconditioned with the last factor of this
+  // structure while that costs less than a new factorisation (the Hessian
+  // changes little between the iterations of a solve: a graduating loop
+  // closure's weight is a low-rank change, a small step a small one), else
+  // by a new factorisation. Empty if H is not positive definite.
+  Eigen::VectorXd gaussNewtonStep();
+  // Preconditioned conjugate gradients on H x = b, starting from the
+  // preconditioned b; false if the residual did not fall below
+  // kStepTolerance |b| within a factorisation's cost.
+  bool solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x);
   // The IRLS-weighted chi2 of the window's factors over their redundancy.
   double windowVarianceFactor() const;
   double varianceFactorOf(const std::vector<int>& factors) const;
@@ -234,6 +247,13 @@ class SparsePoseGraphSolver {
   // Both live in the .cc file, so that CHOLMOD's headers stay out of the
   // installed ones.
   bool supernodal_ = false;
+  // The decomposition holds a factor of this structure's pattern (of an
+  // earlier linearisation), and what using it costs, in flops: a new
+  // factorisation, and one preconditioned CG iteration (two triangular
+  // solves and a product with H).
+  bool factor_valid_ = false;
+  double factorization_flops_ = 0.0, iteration_flops_ = 0.0;
+  long factorizations_ = 0;
   struct Decompositions;
   std::unique_ptr<Decompositions> decompositions_;
   std::vector<PoseBlock> saved_;
