@@ -363,8 +363,10 @@ Eigen::VectorXd SparsePoseGraphSolver::gaussNewtonStep() {
 }
 
 bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x) {
-  // A small system factorises for less than the first solve costs here.
-  if (2.0 * iteration_flops_ >= factorization_flops_) return false;
+  // Worth trying only if CG can succeed for less than a factorisation:
+  // after the first solve and its residual, a change of one loop
+  // closure's weight (rank d) takes d + 1 iterations in exact arithmetic.
+  if ((3.0 + tangent_) * iteration_flops_ >= factorization_flops_) return false;
   const auto h = hessian_.selfadjointView<Eigen::Upper>();
   const double tolerance = kStepTolerance * b.norm();
   *x = solve(b);
