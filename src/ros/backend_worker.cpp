@@ -286,11 +286,7 @@ void BackendWorker::publishFirstEstimate() {
   // whole graph following it) does not change it much, and can take long on
   // a large map. If the update fails after this, its end publishes the last
   // good estimate again.
-  {
-    std::lock_guard<std::mutex> lock(map_to_odom_mutex_);
-    map_to_odom_ = graph_.mapToOdom();
-  }
-  output_->publishEstimate(*graph_.snapshot(false));
+  publish(false);
   const double published = now();
   for (double received : pending_latency_) first_latencies_ms_.add((published - received) * 1e3);
   first_published_ = true;
