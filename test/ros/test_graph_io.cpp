@@ -6,6 +6,7 @@
 
 #include <climits>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -21,13 +22,18 @@ namespace agnc_pgo {
 namespace ros_backend {
 namespace {
 
+// A directory of this test program's own, removed when the program ends.
+struct TempDirectory {
+  std::string path = testing::TempDir() + "agnc_pgo_graph_io_" + std::to_string(::getpid());
+  TempDirectory() { EXPECT_EQ(std::system(("rm -rf '" + path + "' && mkdir -p '" + path + "'").c_str()), 0); }
+  ~TempDirectory() {
+    if (std::system(("rm -rf '" + path + "'").c_str()) != 0) std::perror("rm -rf");
+  }
+};
+
 std::string tempDir() {
-  static const std::string dir = [] {
-    const std::string d = testing::TempDir() + "agnc_pgo_graph_io_" + std::to_string(::getpid());
-    EXPECT_EQ(std::system(("rm -rf '" + d + "' && mkdir -p '" + d + "'").c_str()), 0);
-    return d;
-  }();
-  return dir;
+  static const TempDirectory dir;
+  return dir.path;
 }
 
 std::string readFile(const std::string& path) { return core::readWholeFile(path, 1u << 30); }

@@ -6,6 +6,7 @@ stamp, id and pose; bad loop closures are all counted but their warnings
 throttled; an unknown parameter is warned about at start-up; ~initial_graph
 loads a graph saved by ~save_graph; ~optimize says it converged."""
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -93,7 +94,9 @@ class LaunchAndRuntime(unittest.TestCase):
 
     def test_5_initial_graph_loaded_at_start_up(self):
         rospy.wait_for_service(u.BACKEND + "/save_graph", TIMEOUT)
-        filename = os.path.join(tempfile.mkdtemp(prefix="agnc_pgo_initial_"), "graph.g2o")
+        directory = tempfile.mkdtemp(prefix="agnc_pgo_initial_")
+        self.addCleanup(shutil.rmtree, directory, True)
+        filename = os.path.join(directory, "graph.g2o")
         r = rospy.ServiceProxy(u.BACKEND + "/save_graph", SaveGraph)(filename=filename)
         self.assertTrue(r.success, r.message)
         probe = u.Latest("/probe_initial/status", GraphStatus)
@@ -119,6 +122,7 @@ class LaunchAndRuntime(unittest.TestCase):
         leaves its exit code in self.probe_returncode (negative: a signal,
         e.g. the terminate() here)."""
         log = tempfile.NamedTemporaryFile(prefix="agnc_pgo_probe_", suffix=".log", delete=False)
+        self.addCleanup(os.remove, log.name)
         p = subprocess.Popen([u.find_executable("backend_node"), "__name:=" + name] + args,
                              stdout=log, stderr=subprocess.STDOUT)
         deadline = time.time() + TIMEOUT

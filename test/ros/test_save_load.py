@@ -81,6 +81,7 @@ class SaveLoad(unittest.TestCase):
         self.assertFalse(any(e.graduating for e in u.loop_edges(before)))
 
         directory = tempfile.mkdtemp(prefix="agnc_pgo_test_")
+        self.addCleanup(shutil.rmtree, directory, True)
         filename = os.path.join(directory, "graph.g2o")
         r = save(filename=filename)
         self.assertTrue(r.success, r.message)
@@ -138,7 +139,6 @@ class SaveLoad(unittest.TestCase):
         self.assertIn("No space left on device", r.message)
         r = save(filename="/dev/full")
         self.assertFalse(r.success, r.message)
-        shutil.rmtree(directory)
 
     def check_hostile_files(self, directory, good, load, status, graph, loaded_status):
         """Each damaged, mismatched or out-of-domain pair: success false, graph unchanged."""

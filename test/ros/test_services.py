@@ -4,6 +4,7 @@ graph) until resumed; forcing a loop closure to be an outlier changes its
 classification and the estimate, auto restores it; ~optimize,
 ~save_trajectory; bad requests fail cleanly; invalid parameters stop start-up."""
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -99,7 +100,9 @@ class Services(unittest.TestCase):
     def test_3_optimize_and_trajectory(self):
         r = self.optimize()
         self.assertTrue(r.success, r.message)
-        filename = os.path.join(tempfile.mkdtemp(prefix="agnc_pgo_test_"), "trajectory.tum")
+        directory = tempfile.mkdtemp(prefix="agnc_pgo_test_")
+        self.addCleanup(shutil.rmtree, directory, True)
+        filename = os.path.join(directory, "trajectory.tum")
         r = self.trajectory(filename=filename)
         self.assertTrue(r.success, r.message)
         with open(filename) as f:
