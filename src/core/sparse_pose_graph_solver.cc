@@ -33,8 +33,15 @@ constexpr double kMinRadius = 1e-4;
 
 // A Gauss-Newton step found by conjugate gradients is taken once its
 // residual |H x - b| is this small relative to |b|: as exact as a solve
-// with a new factor, for the purposes of the step.
+// with a new factor, for the purposes of the step. The tolerance of an
+// inexact step (chooseForcingTerm) lies between it and kMaxForcing, the
+// bound of Eisenstat & Walker (1996); their safeguard keeps the tolerance
+// from falling faster than the previous one to the power kForcingPower
+// while that is above kForcingSafeguard.
 constexpr double kStepTolerance = 1e-10;
+constexpr double kMaxForcing = 0.9;
+constexpr double kForcingPower = 1.618033988749895;  // (1 + sqrt 5) / 2
+constexpr double kForcingSafeguard = 0.1;
 
 // CHOLMOD 3 (Debian 12's SuiteSparse 5.12) runs loops of its supernodal
 // factorisation on a team of 4 OpenMP threads fixed when it was compiled,
@@ -259,6 +266,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   }
   gradient_.resize(n);
   factor_valid_ = false;
+  model_known_ = false;
   if (supernodal_) {
     keepCholmodSerial();
     decompositions_->supernodal.analyzePattern(hessian_);
@@ -368,7 +376,7 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
   // closure's weight (rank d) takes d + 1 iterations in exact arithmetic.
   if ((3.0 + tangent_) * iteration_flops_ >= factorization_flops_) return false;
   const auto h = hessian_.selfadjointView<Eigen::Upper>();
-  const double tolerance = kStepTolerance * b.norm();
+  const double tolerance = forcing_ * b.norm();
   *x = solve(b);
   Eigen::VectorXd r = b - h * *x;
   double spent = 2.0 * iteration_flops_;  // the first solve and residual
@@ -399,6 +407,24 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
     p = z + (rz_next / rz) * p;
     rz = rz_next;
   }
+}
+
+void SparsePoseGraphSolver::chooseForcingTerm(double gradient_norm) {
+  const double previous = forcing_;
+  forcing_ = kStepTolerance;
+  const bool known = model_known_;
+  model_known_ = false;  // until this iteration takes a step
+  if (!known || !(last_gradient_norm_ > 0.0)) return;
+  double eta = std::abs(gradient_norm - model_gradient_norm_) / last_gradient_norm_;
+  const double floor = std::pow(previous, kForcingPower);
+  if (floor > kForcingSafeguard) eta = std::max(eta, floor);
+  if (std::isfinite(eta)) forcing_ = std::min(kMaxForcing, std::max(kStepTolerance, eta));
+}
+
+void SparsePoseGraphSolver::rememberModel(double gradient_norm, const Eigen::VectorXd& h_step) {
+  model_known_ = true;
+  last_gradient_norm_ = gradient_norm;
+  model_gradient_norm_ = (gradient_ + h_step).norm();
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
@@ -650,13 +676,16 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   result.cost_after = cost;
 
   saved_.assign(blocks_.begin() + first, blocks_.end());
+  const double gradient_norm = gradient_.norm();
+  chooseForcingTerm(gradient_norm);
   Eigen::VectorXd gauss_newton = gaussNewtonStep();
   if (gauss_newton.size() == 0 || !gauss_newton.allFinite()) {
     // Singular system: fall back to steepest descent inside the trust region.
     gauss_newton = Eigen::VectorXd::Constant(gradient_.size(), std::numeric_limits<double>::infinity());
   }
   if (!trust_region_) {
-    takeStep(first, gauss_newton, cost, &result);
+    if (takeStep(first, gauss_newton, cost, &result))
+      rememberModel(gradient_norm, hessian_.selfadjointView<Eigen::Upper>() * gauss_newton);
     return result;
   }
 
@@ -684,8 +713,8 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
       const double tau = (-b + std::sqrt(std::max(0.0, b * b - 4.0 * a * c))) / (2.0 * a);
       step = steepest + tau * d;
     }
-    const double predicted =
-        -(gradient_.dot(step) + 0.5 * step.dot(hessian_.selfadjointView<Eigen::Upper>() * step));
+    const Eigen::VectorXd h_step = hessian_.selfadjointView<Eigen::Upper>() * step;
+    const double predicted = -(gradient_.dot(step) + 0.5 * step.dot(h_step));
     const double step_norm = step.norm();
     const bool accepted = takeStep(first, step, cost, &result);
     result.truncated = !(gn_norm <= radius_);
@@ -698,7 +727,10 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
       radius_ = std::min(max_radius_, std::max(radius_, kGrowth * step_norm));
     else if (meaningful && ratio < kPoorRatio)
       radius_ = std::max(kMinRadius, kShrink * std::min(radius_, step_norm));
-    if (accepted) return result;
+    if (accepted) {
+      rememberModel(gradient_norm, h_step);
+      return result;
+    }
     if (!meaningful) return result;  // converged: nothing left to gain
   }
   return result;

@@ -61,10 +61,20 @@ class SparsePoseGraphSolver {
   int numFactors() const { return static_cast<int>(factors_.size()); }
   // Numeric factorisations so far (iterate() reuses the last one where it can).
   long factorizations() const { return factorizations_; }
+  // The relative residual |H x + g| / |g| the last iteration's step had to
+  // reach if conjugate gradients found it (see chooseForcingTerm).
+  double forcingTerm() const { return forcing_; }
 
   int addPose(const Pose& initial);
   Pose pose(int id) const { return fromBlock(dimension_, blocks_[id]); }
-  void setPose(int id, const Pose& pose) { blocks_[id] = toBlock(dimension_, pose); }
+  // Moving a pose from outside makes the next iteration solve exactly (see
+  // chooseForcingTerm): the last step's model was of another point. A
+  // changed mu does not: that its model mispredicts the new gradient is
+  // what the forcing term measures.
+  void setPose(int id, const Pose& pose) {
+    blocks_[id] = toBlock(dimension_, pose);
+    model_known_ = false;
+  }
   // The estimate as the solver holds it (pose_manifolds.h), one block per pose.
   const std::vector<PoseBlock>& blocks() const { return blocks_; }
 
@@ -206,12 +216,24 @@ class SparsePoseGraphSolver {
   // structure while that costs less than a new factorisation (the Hessian
   // changes little between the iterations of a solve: a graduating loop
   // closure's weight is a low-rank change, a small step a small one), else
-  // by a new factorisation. Empty if H is not positive definite.
+  // by a new factorisation. CG solves only as exactly as forcing_ asks.
+  // Empty if H is not positive definite.
   Eigen::VectorXd gaussNewtonStep();
   // Preconditioned conjugate gradients on H x = b, starting from the
   // preconditioned b; false if the residual did not fall below
-  // kStepTolerance |b| within a factorisation's cost.
+  // forcing_ |b| within a factorisation's cost.
   bool solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x);
+  // How exactly this iteration's step must solve H x = -g (inexact Newton,
+  // Eisenstat & Walker 1996, choice 1 with its safeguard): as exactly as the
+  // last step's linear model predicted the gradient it led to. Where the
+  // model was poor (a large correction, a changed weight) an exact solve of
+  // it buys nothing; near convergence the model is good and the tolerance
+  // falls towards kStepTolerance, its floor. Exact for the first iteration
+  // of a structure. (A step from a new factorisation is exact anyway.)
+  void chooseForcingTerm(double gradient_norm);
+  // Keeps what the next iteration's forcing term needs: |g| and the
+  // model's gradient |g + H s| after the step s just taken (h_step = H s).
+  void rememberModel(double gradient_norm, const Eigen::VectorXd& h_step);
   // The IRLS-weighted chi2 of the window's factors over their redundancy.
   double windowVarianceFactor() const;
   double varianceFactorOf(const std::vector<int>& factors) const;
@@ -253,6 +275,12 @@ class SparsePoseGraphSolver {
   // solves and a product with H).
   bool factor_valid_ = false;
   double factorization_flops_ = 0.0, iteration_flops_ = 0.0;
+  // Inexact Newton (chooseForcingTerm): the relative residual this
+  // iteration's CG solve must reach, and the last step's model, if a step
+  // was taken on this structure.
+  double forcing_ = 0.0;
+  bool model_known_ = false;
+  double model_gradient_norm_ = 0.0, last_gradient_norm_ = 0.0;
   long factorizations_ = 0;
   struct Decompositions;
   std::unique_ptr<Decompositions> decompositions_;
