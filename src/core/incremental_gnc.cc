@@ -62,6 +62,7 @@ IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
   validate(options_);
   solver_.setTrustRegion(options_.solver.trust_region, options_.solver.trust_region_radius,
                          options_.solver.max_trust_region_radius);
+  solver_.setConvergenceStep(options_.solver.convergence_step);
 }
 
 void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& information) {

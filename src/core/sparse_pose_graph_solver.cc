@@ -376,12 +376,13 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
   // closure's weight (rank d) takes d + 1 iterations in exact arithmetic.
   if ((3.0 + tangent_) * iteration_flops_ >= factorization_flops_) return false;
   const auto h = hessian_.selfadjointView<Eigen::Upper>();
-  const double tolerance = forcing_ * b.norm();
+  const double b_norm = b.norm();
+  const double tolerance = kStepTolerance * b_norm;  // what the budget aims at
   *x = solve(b);
   Eigen::VectorXd r = b - h * *x;
   double spent = 2.0 * iteration_flops_;  // the first solve and residual
   if (!x->allFinite()) return false;
-  if (r.norm() <= tolerance) return true;
+  if (solvedEnough(*x, r.norm() / b_norm)) return true;
   const double first_residual = r.norm();
   Eigen::VectorXd z = solve(r);
   Eigen::VectorXd p = z;
@@ -395,7 +396,7 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
     *x += alpha * p;
     r -= alpha * hp;
     const double residual = r.norm();
-    if (residual <= tolerance) return x->allFinite();
+    if (solvedEnough(*x, residual / b_norm)) return x->allFinite();
     // At the rate the residual has fallen so far, CG must reach the
     // tolerance before it has cost a new factorisation.
     const double rate = std::pow(residual / first_residual, 1.0 / iteration);
@@ -407,6 +408,15 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
     p = z + (rz_next / rz) * p;
     rz = rz_next;
   }
+}
+
+bool SparsePoseGraphSolver::solvedEnough(const Eigen::VectorXd& x, double relative) const {
+  if (relative <= kStepTolerance) return true;
+  if (!(relative <= forcing_)) return false;
+  const long blocks = x.size() / tangent_;
+  double sum = 0.0;
+  for (long v = 0; v < blocks; ++v) sum += x.segment(v * tangent_, tangent_).norm();
+  return sum / static_cast<double>(blocks) >= convergence_step_;
 }
 
 void SparsePoseGraphSolver::chooseForcingTerm(double gradient_norm) {

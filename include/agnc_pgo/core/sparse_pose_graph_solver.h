@@ -117,6 +117,11 @@ class SparsePoseGraphSolver {
     max_radius_ = max_radius;
     resetTrustRegion();
   }
+  // The caller's iterations end at a step whose mean norm per pose is below
+  // `mean_step`: such a step is always solved exactly, so that convergence
+  // is judged on the Gauss-Newton step itself (see chooseForcingTerm).
+  // Infinite (the default): every step is exact.
+  void setConvergenceStep(double mean_step) { convergence_step_ = mean_step; }
   // The next iteration starts again from the initial radius.
   void resetTrustRegion() { radius_ = initial_radius_; }
 
@@ -223,13 +228,17 @@ class SparsePoseGraphSolver {
   // preconditioned b; false if the residual did not fall below
   // forcing_ |b| within a factorisation's cost.
   bool solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x);
+  // Whether CG may stop at x with relative residual `relative`: within the
+  // forcing term, and exact if x is small enough to end the iterations.
+  bool solvedEnough(const Eigen::VectorXd& x, double relative) const;
   // How exactly this iteration's step must solve H x = -g (inexact Newton,
   // Eisenstat & Walker 1996, choice 1 with its safeguard): as exactly as the
   // last step's linear model predicted the gradient it led to. Where the
   // model was poor (a large correction, a changed weight) an exact solve of
   // it buys nothing; near convergence the model is good and the tolerance
   // falls towards kStepTolerance, its floor. Exact for the first iteration
-  // of a structure. (A step from a new factorisation is exact anyway.)
+  // of a structure and for a step that may end the caller's iterations
+  // (setConvergenceStep). (A step from a new factorisation is exact anyway.)
   void chooseForcingTerm(double gradient_norm);
   // Keeps what the next iteration's forcing term needs: |g| and the
   // model's gradient |g + H s| after the step s just taken (h_step = H s).
@@ -279,6 +288,7 @@ class SparsePoseGraphSolver {
   // iteration's CG solve must reach, and the last step's model, if a step
   // was taken on this structure.
   double forcing_ = 0.0;
+  double convergence_step_ = std::numeric_limits<double>::infinity();
   bool model_known_ = false;
   double model_gradient_norm_ = 0.0, last_gradient_norm_ = 0.0;
   long factorizations_ = 0;
