@@ -377,6 +377,10 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
   if ((3.0 + tangent_) * iteration_flops_ >= factorization_flops_) return false;
   const auto h = hessian_.selfadjointView<Eigen::Upper>();
   const double b_norm = b.norm();
+  if (!(b_norm > 0.0)) {  // at a stationary point the step is zero
+    *x = Eigen::VectorXd::Zero(b.size());
+    return true;
+  }
   const double tolerance = kStepTolerance * b_norm;  // what the budget aims at
   *x = solve(b);
   Eigen::VectorXd r = b - h * *x;
