@@ -312,6 +312,97 @@ TEST(SparsePoseGraphSolver, ShortestPathTakesFullWeightShortcuts) {
     EXPECT_EQ(solver.findShortestPath(&search, from, to), solver.shortestPath(from, to, {judged})) << from << " " << to;
 }
 
+// The search finds a shortest path between any two poses: on a random graph
+// (a broken chain, loop closures of many weights, some dormant, disabled or
+// judged) its length is that of Dijkstra's search from one end, and it
+// joins the endpoints; none where they are not joined.
+TEST(SparsePoseGraphSolver, ShortestPathIsAsShortAsDijkstrasFromOneEnd) {
+  SparsePoseGraphSolver solver(2);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(0.0, 1.0);
+  const int n = 120;
+  for (int i = 0; i < n; ++i) solver.addPose(Pose::fromSE2(i, 0, 0));
+  const Eigen::Matrix3d information = 100.0 * Eigen::Matrix3d::Identity();
+  std::vector<std::pair<int, int>> ends;  // per factor
+  for (int i = 1; i < n; ++i) {
+    if (i == n - 10) continue;  // the last ten poses join the rest only by loop closures
+    solver.addFactor(i - 1, i, Pose::fromSE2(1, 0, 0), information, FactorMode::kPlain);
+    ends.emplace_back(i - 1, i);
+  }
+  std::vector<int> judged, dormant;
+  for (int k = 0; k < 150; ++k) {
+    const int a = static_cast<int>(unit(rng) * n), b = static_cast<int>(unit(rng) * n);
+    if (a == b) continue;
+    // Off by up to 0.3 m (3 sigma): kernel weights from 1 down to ~0.
+    const int f = solver.addFactor(a, b, Pose::fromSE2(b - a + 0.3 * unit(rng), 0, 0), information,
+                                   FactorMode::kRobust);
+    ends.emplace_back(a, b);
+    solver.setMu(f, unit(rng));
+    const double fate = unit(rng);
+    if (fate < 0.1) {
+      solver.setDormant(f, true);
+      dormant.push_back(f);
+    } else if (fate < 0.15) {
+      solver.setMode(f, FactorMode::kDisabled);
+    } else if (fate < 0.2) {
+      judged.push_back(f);
+    }
+  }
+  // Three poses no factor reaches.
+  for (int i = 0; i < 3; ++i) solver.addPose(Pose::fromSE2(n + i, 5, 0));
+  const int poses = solver.numPoses();
+  // Dormant factors keep a weight, but no path passes them.
+  auto length = [&](int k) {
+    if (std::find(judged.begin(), judged.end(), k) != judged.end() ||
+        std::find(dormant.begin(), dormant.end(), k) != dormant.end())
+      return HUGE_VAL;
+    const double w = solver.weight(k);
+    return w > 0.0 ? 1.0 / w : HUGE_VAL;
+  };
+  SparsePoseGraphSolver::PathSearch search = solver.pathSearch(judged);
+  int joined = 0, apart = 0;
+  for (int trial = 0; trial < 80; ++trial) {
+    const int from = static_cast<int>(unit(rng) * poses), to = static_cast<int>(unit(rng) * poses);
+    // Reference: Dijkstra from `from` on a dense table, every factor relaxed.
+    std::vector<double> best(poses, HUGE_VAL);
+    std::vector<bool> done(poses, false);
+    best[from] = 0.0;
+    for (;;) {
+      int p = -1;
+      for (int q = 0; q < poses; ++q)
+        if (!done[q] && best[q] < HUGE_VAL && (p < 0 || best[q] < best[p])) p = q;
+      if (p < 0) break;
+      done[p] = true;
+      for (size_t k = 0; k < ends.size(); ++k) {
+        const auto [a, b] = ends[k];
+        if (a != p && b != p) continue;
+        const int q = a == p ? b : a;
+        best[q] = std::min(best[q], best[p] + length(static_cast<int>(k)));
+      }
+    }
+    const std::vector<int> path = solver.findShortestPath(&search, from, to);
+    EXPECT_EQ(path, solver.shortestPath(from, to, judged));
+    if (best[to] == HUGE_VAL) {
+      EXPECT_TRUE(path.empty()) << from << " " << to;
+      ++apart;
+      continue;
+    }
+    ++joined;
+    double total = 0.0;
+    int at = from;
+    for (int k : path) {
+      ASSERT_TRUE(ends[k].first == at || ends[k].second == at) << "the path breaks at pose " << at;
+      at = ends[k].first == at ? ends[k].second : ends[k].first;
+      total += length(k);
+    }
+    EXPECT_EQ(at, to);
+    EXPECT_NEAR(total, best[to], 1e-9 * (1.0 + best[to])) << from << " -> " << to;
+  }
+  // Both kinds of pairs were drawn.
+  EXPECT_GT(joined, 20);
+  EXPECT_GT(apart, 0);
+}
+
 // The map has more than any one path: its covariance of a factor lies
 // between the variance factor times I and the path's prediction. Two laps
 // of a circle (in 3-D with some roll, pitch and height), odometry and loop
