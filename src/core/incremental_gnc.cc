@@ -4,6 +4,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <stdexcept>
 #include <string>
 
@@ -294,7 +295,8 @@ std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePl
   for (int index : plan.cycles) {
     LoopClosure& loop = loops_[index];
     loop.uncorroborated = true;
-    loop.undone = true;
+    loop.undone = true;  // not judged by the map again: no path to keep
+    paths_ruled_out_.erase(index);
     schedule_.startAtOne(&loop.graduation);
     finishAt(&loop, 1.0);
     refresh(&loop);
@@ -426,18 +428,29 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   // between its endpoints cannot explain -- the path alone is less certain
   // than the map -- is decided without factorising the map (a random
   // outlier far off usually is); the others are predicted by the map. The
-  // variance factor is the one the map's prediction uses.
+  // variance factor is the one the map's prediction uses. A loop closure
+  // judged again tries first the path that ruled it out last time: a search
+  // for the shortest path between far endpoints expands most of the map.
   const double variance_factor = solver_.varianceFactor(first, factors);
   const Eigen::VectorXd extent = mapExtent(dimension_, solver_.blocks());
   std::vector<double> log_volume(loops.size());
   std::vector<int> undecided, undecided_factors;
-  SparsePoseGraphSolver::PathSearch paths = solver_.pathSearch(factors);
+  std::vector<int> judged_sorted = factors;
+  std::sort(judged_sorted.begin(), judged_sorted.end());
+  std::unique_ptr<SparsePoseGraphSolver::PathSearch> paths;  // made once a search is needed
   for (size_t i = 0; i < loops.size(); ++i) {
-    const Edge& e = loops_[loops[i]].edge;
+    const int index = loops[i];
+    const Edge& e = loops_[index].edge;
     log_volume[i] = logChanceVolume(extent, e.information);
-    const SparsePoseGraphSolver::Prediction along_path =
-        solver_.predictAlongPath(factors[i], solver_.findShortestPath(&paths, olderEnd(e), newerEnd(e)), variance_factor);
-    if (logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume[i]) <= 0.0) continue;
+    if (stillRuledOut(index, judged_sorted, variance_factor, log_volume[i])) continue;
+    if (!paths) paths = std::make_unique<SparsePoseGraphSolver::PathSearch>(solver_.pathSearch(factors));
+    std::vector<int> path = solver_.findShortestPath(paths.get(), olderEnd(e), newerEnd(e));
+    const SparsePoseGraphSolver::Prediction along_path = solver_.predictAlongPath(factors[i], path, variance_factor);
+    if (logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume[i]) <= 0.0) {
+      paths_ruled_out_[index] = std::move(path);
+      continue;
+    }
+    paths_ruled_out_.erase(index);
     undecided.push_back(static_cast<int>(i));
     undecided_factors.push_back(factors[i]);
   }
@@ -453,7 +466,21 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   return explained;
 }
 
+bool IncrementalGnc::stillRuledOut(int index, const std::vector<int>& judged_sorted, double variance_factor,
+                                   double log_volume) const {
+  const auto found = paths_ruled_out_.find(index);
+  if (found == paths_ruled_out_.end()) return false;
+  const std::vector<int>& path = found->second;
+  for (int k : path)
+    if (std::binary_search(judged_sorted.begin(), judged_sorted.end(), k)) return false;
+  // Infinite where a factor of the path left the map (dormant, disabled).
+  const SparsePoseGraphSolver::Prediction along_path =
+      solver_.predictAlongPath(loops_[index].factor, path, variance_factor);
+  return logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume) <= 0.0;
+}
+
 void IncrementalGnc::land(int index, UpdatePlan* plan) {
+  paths_ruled_out_.erase(index);
   LoopClosure& loop = loops_[index];
   loop.uncorroborated = false;
   loop.undone = false;

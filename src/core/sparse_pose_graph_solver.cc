@@ -521,7 +521,7 @@ SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPath(int fa
   for (int k : path) {
     const Factor& step = factors_[k];
     const bool forward = step.a == at;
-    if (step.a == kAnchor || (!forward && step.b != at)) return out;
+    if (step.a == kAnchor || step.dormant || (!forward && step.b != at)) return out;
     evaluate(step, residual, forward ? jac_p : jac_q, forward ? jac_q : jac_p);
     double w = step.mode == FactorMode::kDisabled ? 0.0 : 1.0;
     if (step.mode == FactorMode::kRobust) {

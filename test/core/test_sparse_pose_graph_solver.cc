@@ -292,7 +292,11 @@ TEST(SparsePoseGraphSolver, ShortestPathTakesFullWeightShortcuts) {
   EXPECT_EQ(solver.shortestPath(4, 0, {judged}), (std::vector<int>{4, shortcut}));
   solver.setDormant(shortcut, true);
   EXPECT_EQ(solver.shortestPath(0, 4, {judged}).size(), 4u);
+  // Nor does a path that crosses it bound the map's prediction: a kept path
+  // (IncrementalGnc::paths_ruled_out_) whose factor fell dormant predicts nothing.
+  EXPECT_FALSE(solver.predictAlongPath(judged, {shortcut, 4}, 1.0).covariance.allFinite());
   solver.setDormant(shortcut, false);
+  EXPECT_TRUE(solver.predictAlongPath(judged, {shortcut, 4}, 1.0).covariance.allFinite());
   solver.setMode(shortcut, FactorMode::kDisabled);
   EXPECT_EQ(solver.shortestPath(0, 4, {judged}).size(), 4u);
   // 20 sigma off at mu = 1 (weight 5e-4), the shortcut counts more than

@@ -13,6 +13,7 @@
 
 #include <functional>
 #include <limits>
+#include <unordered_map>
 #include <vector>
 
 #include "agnc_pgo/core/gnc_options.h"
@@ -178,6 +179,11 @@ class IncrementalGnc {
   // For each far loop closure, whether the map's uncertainty between its
   // endpoints explains it better than chance (loop_prediction.h).
   std::vector<bool> explainedByTheMap(const std::vector<int>& loops);
+  // Whether the path that last ruled the loop closure out (paths_ruled_out_)
+  // still does at the current estimate: usable (none of its factors judged
+  // with it, dormant or of no weight) and its bound on the map's odds <= 0.
+  bool stillRuledOut(int index, const std::vector<int>& judged_sorted, double variance_factor,
+                     double log_volume) const;
   void planWindow(UpdatePlan* plan) const;
   void selectGraduating(UpdatePlan* plan);
   void runGncSteps(UpdatePlan* plan, UpdateStats* stats);
@@ -215,6 +221,12 @@ class IncrementalGnc {
   std::vector<std::vector<int>> loops_by_newer_pose_;  // loop indices by their newer endpoint
   std::vector<int> pending_;       // loop indices queued for the next update
   std::vector<int> needs_restart_; // loop indices whose override changed
+  // Per loop closure the map's test ruled out by a path's bound, that path:
+  // a loop closure judged again (after a landing) tries it before searching
+  // the map for the shortest path. Any path of the map's factors bounds the
+  // map's prediction from above, so a bound <= 0 on it decides as the
+  // prediction would; only where it no longer does is the map searched.
+  std::unordered_map<int, std::vector<int>> paths_ruled_out_;
   double unrefined_step_ = 0.0;  // window displacements since the last whole-graph refinement
   long total_iterations_ = 0;
   long total_gnc_steps_ = 0;

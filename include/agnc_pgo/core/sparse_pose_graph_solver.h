@@ -159,7 +159,8 @@ class SparsePoseGraphSolver {
   // tightens a covariance, so at the same estimate and variance factor
   // predict()'s covariance lies between variance_factor * I and this one,
   // found without a factorisation in time linear in the path. Infinite if
-  // the path does not join the endpoints or holds a factor of no weight.
+  // the path does not join the endpoints or holds a factor of no weight or
+  // out of the linear system (dormant).
   Prediction predictAlongPath(int factor, const std::vector<int>& path, double variance_factor) const;
   // The factors of the path from pose `from` to pose `to` that crosses the
   // fewest full-weight factors (a factor of kernel weight w counts 1/w),
