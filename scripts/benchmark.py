@@ -41,7 +41,9 @@ build/drift/), run like the g2o datasets.
 build/peer_venv/, and a process of its own): batch GNC (GncLMOptimizer, TLS)
 with its precision, recall, ATE and CPU time, and with --peers gnc,isam2 also
 iSAM2 fed only the true loop closures (the speed floor of an exact
-incremental solver). GTSAM is never a dependency of agnc_pgo itself.
+incremental solver), with kernel the minimum of agnc_pgo's own robust
+objective next to the truth (Levenberg-Marquardt from the outlier-free
+optimum). GTSAM is never a dependency of agnc_pgo itself.
 
 Timings need a quiet machine: keep --jobs 1 for numbers you publish.
 Needs only Python 3 with numpy and matplotlib (Debian's python3-matplotlib);
@@ -81,7 +83,10 @@ SHARED = os.path.join(os.path.dirname(REPO), "shared")
 DEFAULT_TOOL = os.path.join(REPO, "build", "devel", "lib", "agnc_pgo", "agnc_pgo_replay")
 PEER_SCRIPT = os.path.join(SCRIPTS, "gtsam_peer.py")
 DEFAULT_PEER_VENV = os.path.join(REPO, "build", "peer_venv")
-PEERS = ("gnc", "isam2")
+PEERS = ("gnc", "isam2", "kernel")
+# The shape of the SIG kernel the replay runs with (GncOptions' default): the
+# kernel peer minimises the same objective.
+KERNEL_SHAPE = 3.0
 # Pinned so that peer numbers of different runs compare (4.3.0: the newest on
 # PyPI when the peers were added, wheels for Debian 12's Python 3.11).
 PEER_REQUIREMENTS = ("gtsam==4.3.0", "numpy")
@@ -469,6 +474,8 @@ def run_peer(cell, run_dir, args):
         command += ["--ground-truth", cell.ground_truth]
     if "isam2" in args.peers:
         command.append("--isam2")
+    if "kernel" in args.peers:
+        command += ["--kernel", str(KERNEL_SHAPE)]
     try:
         proc = subprocess.run(command, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                               timeout=args.timeout)
@@ -752,6 +759,7 @@ PEER_COLUMNS = ("input", "outliers %", "seed", "schedule", "agnc_pgo precision",
                 "GNC ATE vs peer's optimum m", "GNC CPU s", "GNC CPU / agnc_pgo runtime",
                 "peer's optimum χ² (start)", "peer's optimum ATE m")
 ISAM2_COLUMNS = ("iSAM2 CPU s", "iSAM2 max update ms", "iSAM2 ATE vs peer's optimum m")
+KERNEL_COLUMNS = ("kernel's minimum: precision", "recall", "ATE vs peer's optimum m")
 
 
 def optimum_note(peer):
@@ -765,14 +773,15 @@ def optimum_note(peer):
     return f"{starts[best]:.4g} ({best}" + (f"; {', '.join(worse)}" if worse else "") + ")"
 
 
-def peer_row(r, with_isam2):
+def peer_row(r, with_isam2, with_kernel):
     c, m, p = r.cell, r.metrics, r.peer
     row = [f"`{c.label}`", fmt(c.outliers, 0), DASH if c.seed is None else str(c.seed), c.schedule,
            fmt(m.get("precision"), 3), fmt(m.get("recall"), 3), fmt(m.get("ate_m"), 3),
            fmt(m.get("ate_vs_inlier_optimum_m"), 3)]
     if p is None:
+        extra = (len(ISAM2_COLUMNS) if with_isam2 else 0) + (len(KERNEL_COLUMNS) if with_kernel else 0)
         return row + [DASH, fmt(r.runtime, 3), fmt(m.get("update_ms_max"), 1), r.peer_status] \
-            + [""] * (len(PEER_COLUMNS) + (len(ISAM2_COLUMNS) if with_isam2 else 0) - len(row) - 4)
+            + [""] * (len(PEER_COLUMNS) + extra - len(row) - 4)
     row += [fmt(p.get("replay_ate_vs_optimum_m"), 3), fmt(r.runtime, 3), fmt(m.get("update_ms_max"), 1),
             fmt(p.get("gnc_precision"), 3), fmt(p.get("gnc_recall"), 3),
             fmt(p.get("gnc_ate_vs_ground_truth_m"), 3), fmt(p.get("gnc_ate_vs_optimum_m"), 3),
@@ -781,6 +790,9 @@ def peer_row(r, with_isam2):
     if with_isam2:
         row += [fmt(p.get("isam2_cpu_s"), 2), fmt(p.get("isam2_update_ms_max"), 1),
                 fmt(p.get("isam2_ate_vs_optimum_m"), 3)]
+    if with_kernel:
+        row += [fmt(p.get("kernel_precision"), 3), fmt(p.get("kernel_recall"), 3),
+                fmt(p.get("kernel_ate_vs_optimum_m"), 3)]
     return row
 
 
@@ -788,10 +800,10 @@ def peer_section(results, peers):
     ran = [r for r in results if r.ok and r.peer_status is not None]
     if not ran:
         return ["No peer ran."]
-    with_isam2 = "isam2" in peers
-    columns = PEER_COLUMNS + (ISAM2_COLUMNS if with_isam2 else ())
+    with_isam2, with_kernel = "isam2" in peers, "kernel" in peers
+    columns = PEER_COLUMNS + (ISAM2_COLUMNS if with_isam2 else ()) + (KERNEL_COLUMNS if with_kernel else ())
     versions = ordered(r.peer.get("gtsam_version", "unknown") for r in ran if r.peer)
-    lines = markdown_table(columns, [peer_row(r, with_isam2) for r in ran])
+    lines = markdown_table(columns, [peer_row(r, with_isam2, with_kernel) for r in ran])
     lines += ["", f"GTSAM {', '.join(versions) or 'unknown'} from PyPI, in its own venv and process "
               "(`scripts/gtsam_peer.py`), on the final graph of the agnc_pgo run beside it (its "
               "`estimate.g2o`: every odometry edge and loop closure, injected outliers included; labels from "
@@ -809,6 +821,13 @@ def peer_section(results, peers):
                   "(its odometry, then the loop closures ending there), one update per pose; CPU time of the "
                   "updates and of reading the newest pose: the speed floor of an exact incremental solver "
                   "that is told which loop closures are true."]
+    if with_kernel:
+        lines += ["", f"Kernel's minimum: Levenberg-Marquardt on the same graph with the objective agnc_pgo's "
+                  f"GNC ends on (Geman-McClure of shape {KERNEL_SHAPE:g}, the SIG kernel at μ = 1, on every "
+                  "loop closure), started from the peer's outlier-free optimum; a loop closure is kept there "
+                  "when r < q(0.95) (the replay's default classification). What that objective keeps next to "
+                  "the truth, whatever a graduation does: a true loop closure it rejects there is the "
+                  "kernel's verdict, not the engine's."]
     return lines
 
 
@@ -1133,7 +1152,9 @@ def parse_arguments(argv=None):
     add("--list", action="store_true", help="list the selected cells and exit")
     add("--peers", nargs="?", const=["gnc"], default=[], type=comma_list(str, PEERS),
         help="also run GTSAM peers on the final graph of every input (one schedule's run): gnc = batch "
-             "GncLMOptimizer (TLS), isam2 = ISAM2 on the true loop closures (speed floor); comma-separated, "
+             "GncLMOptimizer (TLS), isam2 = ISAM2 on the true loop closures (speed floor), kernel = "
+             "Levenberg-Marquardt on agnc_pgo's own objective (Geman-McClure) from the outlier-free optimum; "
+             "comma-separated, "
              "--peers alone = gnc. GTSAM comes from PyPI into --peer-venv, made on first use")
     add("--peer-venv", default=DEFAULT_PEER_VENV,
         help="the peers' virtual environment (default build/peer_venv/)")

@@ -4,7 +4,7 @@ Run by scripts/benchmark.py --peers in its own virtual environment (GTSAM
 from PyPI is a benchmark peer only, never a dependency of agnc_pgo):
 
   peer_venv/bin/python scripts/gtsam_peer.py --run RUN_DIR [--ground-truth GT.g2o]
-      [--isam2] --output peer.json
+      [--isam2] [--kernel C] --output peer.json
 
 RUN_DIR is an `agnc_pgo_replay --output` directory: estimate.g2o holds every
 odometry and loop-closure edge of the replay (injected outliers included)
@@ -18,6 +18,13 @@ in the order of their edges. Measured here:
 - --isam2: gtsam.ISAM2 (default parameters) fed the TRUE loop closures only,
   pose by pose (odometry, then the loop closures ending there), the speed
   floor of an exact incremental solver.
+- --kernel C: the robust objective agnc_pgo's GNC ends on (the SIG kernel at
+  mu = 1, i.e. Geman-McClure with shape C, on every loop closure) minimised
+  by Levenberg-Marquardt on that graph, started from the outlier-free
+  optimum below: where that objective's own minimum next to the truth lies,
+  whatever the graduation. A loop closure is kept there under the replay's
+  default classification (whitened residual r < q(0.95) of chi2 with the
+  factor's degrees of freedom, the reference implementations' convention).
 - the references: the ground truth, and the outlier-free optimum (LM on
   odometry and true loop closures, started from the odometry, from LAGO /
   chordal initialisation and from the ground truth; the lowest chi2 wins).
@@ -38,6 +45,8 @@ import gtsam
 
 KEPT_WEIGHT = 0.5
 PRIOR_SIGMA = 1e-6
+# q(0.95) of chi2 with 3 (SE(2)) and 6 (SE(3)) degrees of freedom (ALGORITHM.md's golden values).
+CHI2_95 = {2: 7.814728, 3: 12.591587}
 
 
 class InputError(Exception):
@@ -257,6 +266,38 @@ def run_gnc(graph, initial, known_inliers):
     return result, np.asarray(optimizer.getWeights()), cpu, wall
 
 
+def robust_graph(dimension, odometry, loops, shape):
+    """As build_graph, with a Geman-McClure kernel of the given shape on every
+    loop closure (the SIG kernel at mu = 1)."""
+    graph = gtsam.NonlinearFactorGraph()
+    graph.add(prior(dimension))
+    for edge in odometry:
+        graph.add(between(dimension, edge))
+    kernel = gtsam.noiseModel.mEstimator.GemanMcClure.Create(shape)
+    factor = gtsam.BetweenFactorPose2 if dimension == 2 else gtsam.BetweenFactorPose3
+    for i, j, z, info in loops:
+        noise = gtsam.noiseModel.Robust.Create(kernel, gtsam.noiseModel.Gaussian.Information(info))
+        graph.add(factor(i, j, z, noise))
+    return graph
+
+
+def whitened_norm(dimension, values, edge):
+    """r = |S e| of a loop closure at the given estimate, e in GTSAM's tangent."""
+    i, j, z, info = edge
+    get = values.atPose2 if dimension == 2 else values.atPose3
+    error = z.localCoordinates(get(i).between(get(j)))
+    return float(math.sqrt(max(0.0, error @ info @ error)))
+
+
+def run_kernel(dimension, odometry, loops, shape, start):
+    """LM on the robust objective from `start`: (values, kept per loop closure, cpu s)."""
+    cpu = time.process_time()
+    values = least_squares(robust_graph(dimension, odometry, loops, shape), start)
+    cpu = time.process_time() - cpu
+    kept = [whitened_norm(dimension, values, edge) < CHI2_95[dimension] for edge in loops]
+    return values, kept, cpu
+
+
 def least_squares(graph, initial):
     params = gtsam.LevenbergMarquardtParams()
     params.setMaxIterations(1000)
@@ -368,6 +409,11 @@ def measure(args):
         isam, total, slowest, updates = run_isam2(dimension, odometry, true_loops)
         trajectories["isam2"] = positions(dimension, isam, count)
         report.update(isam2_cpu_s=total, isam2_update_ms_max=slowest, isam2_updates=updates)
+    if args.kernel is not None:
+        values, kernel_kept, kernel_cpu = run_kernel(dimension, odometry, loops, args.kernel, reference)
+        trajectories["kernel"] = positions(dimension, values, count)
+        report.update(kernel_shape=args.kernel, kernel_cpu_s=kernel_cpu,
+                      **{f"kernel_{k}": v for k, v in precision_recall(kernel_kept, is_outlier).items()})
     for who, trajectory in trajectories.items():
         for name, positions_of_reference in references.items():
             report[f"{who}_ate_vs_{name}_m"] = ate(trajectory, positions_of_reference)
@@ -398,6 +444,8 @@ def main(argv=None):
     parser.add_argument("--run", required=True, help="an agnc_pgo_replay --output directory")
     parser.add_argument("--ground-truth", help="ground-truth poses (g2o VERTEX lines, same ids)")
     parser.add_argument("--isam2", action="store_true", help="also the iSAM2 speed floor on the true loop closures")
+    parser.add_argument("--kernel", type=float, metavar="C",
+                        help="also minimise the Geman-McClure objective of shape C from the outlier-free optimum")
     parser.add_argument("--output", required=True, help="where the JSON report goes")
     args = parser.parse_args(argv)
     try:
