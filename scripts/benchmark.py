@@ -472,6 +472,8 @@ def run_peer(cell, run_dir, args):
     command = [args.peer_python, PEER_SCRIPT, "--run", run_dir, "--output", output]
     if cell.ground_truth:
         command += ["--ground-truth", cell.ground_truth]
+    if "gnc" not in args.peers:
+        command.append("--without-gnc")
     if "isam2" in args.peers:
         command.append("--isam2")
     if "kernel" in args.peers:
@@ -515,9 +517,13 @@ def peer_note(result):
         return ""
     if result.peer is None:
         return f"  | GTSAM: {result.peer_status}"
-    p = result.peer
-    return (f"  | GTSAM GNC {fmt(p.get('gnc_cpu_s'), 2)} s CPU  P {fmt(p.get('gnc_precision'), 3)}  "
-            f"R {fmt(p.get('gnc_recall'), 3)}")
+    p, notes = result.peer, []
+    if "gnc_precision" in p:
+        notes.append(f"GNC {fmt(p.get('gnc_cpu_s'), 2)} s CPU  P {fmt(p.get('gnc_precision'), 3)}  "
+                     f"R {fmt(p.get('gnc_recall'), 3)}")
+    if "kernel_precision" in p:
+        notes.append(f"kernel's minimum P {fmt(p.get('kernel_precision'), 3)}  R {fmt(p.get('kernel_recall'), 3)}")
+    return "  | GTSAM " + "; ".join(notes) if notes else ""
 
 
 def run_all(cells, args):

@@ -4,14 +4,14 @@ Run by scripts/benchmark.py --peers in its own virtual environment (GTSAM
 from PyPI is a benchmark peer only, never a dependency of agnc_pgo):
 
   peer_venv/bin/python scripts/gtsam_peer.py --run RUN_DIR [--ground-truth GT.g2o]
-      [--isam2] [--kernel C] --output peer.json
+      [--without-gnc] [--isam2] [--kernel C] --output peer.json
 
 RUN_DIR is an `agnc_pgo_replay --output` directory: estimate.g2o holds every
 odometry and loop-closure edge of the replay (injected outliers included)
 and the replay's final estimate; loop_closures.csv labels the loop closures
 in the order of their edges. Measured here:
 
-- batch GNC: gtsam.GncLMOptimizer (TLS loss, default parameters) on that
+- batch GNC (unless --without-gnc): gtsam.GncLMOptimizer (TLS loss, default parameters) on that
   graph, initialised by composing the odometry, with a prior on pose 0 and
   the prior and the odometry as known inliers; a loop closure is kept when its
   final GNC weight is above 0.5.
@@ -389,22 +389,22 @@ def measure(args):
     if sorted(ours) != list(range(count)):
         raise InputError(f"{estimate_path}: the estimate does not hold poses 0..{count - 1}")
 
-    graph, known_inliers = build_graph(dimension, odometry, loops)
-    gnc, weights, cpu, wall = run_gnc(graph, composed_odometry(dimension, odometry), known_inliers)
-    kept = [bool(w > KEPT_WEIGHT) for w in weights[len(known_inliers):]]
     true_loops = [edge for edge, outlier in labelled if not outlier]
     reference, reference_chi2, starts = outlier_free_optimum(dimension, odometry, true_loops, ground_truth)
 
     references = {"optimum": positions(dimension, reference, count)}
     if ground_truth is not None:
         references["ground_truth"] = positions(dimension, values_of(ground_truth), count)
-    trajectories = {"gnc": positions(dimension, gnc, count),
-                    "replay": positions(dimension, values_of(ours), count)}
+    trajectories = {"replay": positions(dimension, values_of(ours), count)}
     report = dict(dimension=dimension, poses=count, loop_closures=len(loops), outliers=sum(is_outlier),
-                  gtsam_version=gtsam_version(), gnc_cpu_s=cpu, gnc_wall_s=wall,
-                  gnc_chi2_all_edges=chi2(graph, gnc),
-                  reference_chi2=reference_chi2, reference_chi2_by_start=starts,
-                  **{f"gnc_{k}": v for k, v in precision_recall(kept, is_outlier).items()})
+                  gtsam_version=gtsam_version(), reference_chi2=reference_chi2, reference_chi2_by_start=starts)
+    if not args.without_gnc:
+        graph, known_inliers = build_graph(dimension, odometry, loops)
+        gnc, weights, cpu, wall = run_gnc(graph, composed_odometry(dimension, odometry), known_inliers)
+        kept = [bool(w > KEPT_WEIGHT) for w in weights[len(known_inliers):]]
+        trajectories["gnc"] = positions(dimension, gnc, count)
+        report.update(gnc_cpu_s=cpu, gnc_wall_s=wall, gnc_chi2_all_edges=chi2(graph, gnc),
+                      **{f"gnc_{k}": v for k, v in precision_recall(kept, is_outlier).items()})
     if args.isam2:
         isam, total, slowest, updates = run_isam2(dimension, odometry, true_loops)
         trajectories["isam2"] = positions(dimension, isam, count)
@@ -443,6 +443,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("--run", required=True, help="an agnc_pgo_replay --output directory")
     parser.add_argument("--ground-truth", help="ground-truth poses (g2o VERTEX lines, same ids)")
+    parser.add_argument("--without-gnc", action="store_true", help="skip the batch GNC peer")
     parser.add_argument("--isam2", action="store_true", help="also the iSAM2 speed floor on the true loop closures")
     parser.add_argument("--kernel", type=float, metavar="C",
                         help="also minimise the Geman-McClure objective of shape C from the outlier-free optimum")
