@@ -1137,8 +1137,8 @@ def parse_arguments(argv=None):
         help="agnc_pgo_replay binary (default build/devel/lib/agnc_pgo/agnc_pgo_replay)")
     add("--scaling", action="store_true",
         help=f"also generate large synthetic grid graphs and run them ({SCALING_OUTLIERS} %% outliers)")
-    add("--scaling-poses-2d", type=int, default=20000, help="poses of the 2D graph (default %(default)d; 0: none)")
-    add("--scaling-poses-3d", type=int, default=5000, help="poses of the 3D graph (default %(default)d; 0: none)")
+    add("--scaling-poses-2d", type=int, default=50000, help="poses of the 2D graph (default %(default)d; 0: none)")
+    add("--scaling-poses-3d", type=int, default=10000, help="poses of the 3D graph (default %(default)d; 0: none)")
     add("--scaling-dir", default=os.path.join(REPO, "build", "scaling"),
         help="where the synthetic graphs go (default build/scaling/)")
     add("--drift", action="store_true",
