@@ -765,7 +765,8 @@ PEER_COLUMNS = ("input", "outliers %", "seed", "schedule", "agnc_pgo precision",
                 "GNC ATE vs peer's optimum m", "GNC CPU s", "GNC CPU / agnc_pgo runtime",
                 "peer's optimum χ² (start)", "peer's optimum ATE m")
 ISAM2_COLUMNS = ("iSAM2 CPU s", "iSAM2 max update ms", "iSAM2 ATE vs peer's optimum m")
-KERNEL_COLUMNS = ("kernel's minimum: precision", "recall", "ATE vs peer's optimum m")
+KERNEL_COLUMNS = ("kernel's minimum: precision", "recall", "ATE vs peer's optimum m", "objective",
+                  "objective at agnc_pgo's estimate")
 
 
 def optimum_note(peer):
@@ -798,7 +799,8 @@ def peer_row(r, with_isam2, with_kernel):
                 fmt(p.get("isam2_ate_vs_optimum_m"), 3)]
     if with_kernel:
         row += [fmt(p.get("kernel_precision"), 3), fmt(p.get("kernel_recall"), 3),
-                fmt(p.get("kernel_ate_vs_optimum_m"), 3)]
+                fmt(p.get("kernel_ate_vs_optimum_m"), 3), fmt(p.get("kernel_objective"), 1),
+                fmt(p.get("replay_objective"), 1)]
     return row
 
 
@@ -833,7 +835,8 @@ def peer_section(results, peers):
                   "loop closure), started from the peer's outlier-free optimum; a loop closure is kept there "
                   "when r < q(0.95) (the replay's default classification). What that objective keeps next to "
                   "the truth, whatever a graduation does: a true loop closure it rejects there is the "
-                  "kernel's verdict, not the engine's."]
+                  "kernel's verdict, not the engine's. Objective: that robust χ² (2 × GTSAM's error) there "
+                  "and at agnc_pgo's final estimate; the lower is the better minimum of the same objective."]
     return lines
 
 
