@@ -159,9 +159,11 @@ def split_edges(edges, labels, path):
 # Graphs
 # --------------------------------------------------------------------------
 
-def between(dimension, edge):
+def between(dimension, edge, shape=None):
     i, j, z, info = edge
     noise = gtsam.noiseModel.Gaussian.Information(info)
+    if shape is not None:
+        noise = gtsam.noiseModel.Robust.Create(gtsam.noiseModel.mEstimator.GemanMcClure.Create(shape), noise)
     factor = gtsam.BetweenFactorPose2 if dimension == 2 else gtsam.BetweenFactorPose3
     return factor(i, j, z, noise)
 
@@ -184,15 +186,16 @@ def composed_odometry(dimension, odometry):
     return values
 
 
-def build_graph(dimension, odometry, loops):
-    """Prior, odometry, then the loop closures; returns (graph, indices of the
-    prior and odometry factors)."""
+def build_graph(dimension, odometry, loops, shape=None):
+    """Prior, odometry, then the loop closures, with a Geman-McClure kernel of
+    the given shape on each loop closure (the SIG kernel at mu = 1) if one is
+    given; returns (graph, indices of the prior and odometry factors)."""
     graph = gtsam.NonlinearFactorGraph()
     graph.add(prior(dimension))
     for edge in odometry:
         graph.add(between(dimension, edge))
     for edge in loops:
-        graph.add(between(dimension, edge))
+        graph.add(between(dimension, edge, shape))
     return graph, list(range(1 + len(odometry)))
 
 
@@ -268,21 +271,6 @@ def run_gnc(graph, initial, known_inliers):
     return result, np.asarray(optimizer.getWeights()), cpu, wall
 
 
-def robust_graph(dimension, odometry, loops, shape):
-    """As build_graph, with a Geman-McClure kernel of the given shape on every
-    loop closure (the SIG kernel at mu = 1)."""
-    graph = gtsam.NonlinearFactorGraph()
-    graph.add(prior(dimension))
-    for edge in odometry:
-        graph.add(between(dimension, edge))
-    kernel = gtsam.noiseModel.mEstimator.GemanMcClure.Create(shape)
-    factor = gtsam.BetweenFactorPose2 if dimension == 2 else gtsam.BetweenFactorPose3
-    for i, j, z, info in loops:
-        noise = gtsam.noiseModel.Robust.Create(kernel, gtsam.noiseModel.Gaussian.Information(info))
-        graph.add(factor(i, j, z, noise))
-    return graph
-
-
 def whitened_norm(dimension, values, edge):
     """r = |S e| of a loop closure at the given estimate, e in GTSAM's tangent."""
     i, j, z, info = edge
@@ -295,7 +283,7 @@ def run_kernel(dimension, odometry, loops, shape, start, replay):
     """LM on the robust objective from `start`: (values, kept per loop
     closure, cpu s, the objective there, the objective at the replay's
     estimate `replay`), objectives as 2 x GTSAM's error (a chi2)."""
-    graph = robust_graph(dimension, odometry, loops, shape)
+    graph, _ = build_graph(dimension, odometry, loops, shape)
     cpu = time.process_time()
     values = least_squares(graph, start)
     cpu = time.process_time() - cpu
