@@ -12,7 +12,8 @@
 #    the README's picture).
 # Installs missing Debian packages and builds first. The offline replay of the
 # same run is build/devel/lib/agnc_pgo/agnc_pgo_replay (see README).
-# Environment: AGNC_DEMO_RATE (entries/s, default 120), AGNC_DEMO_PORT (master port).
+# Environment: AGNC_DEMO_RATE (entries/s, default 120), AGNC_DEMO_PORT (master port;
+# default 11391 with a display, a free port headless).
 set -eo pipefail
 source "$(dirname "${BASH_SOURCE[0]}")/setup.sh"
 

@@ -11,10 +11,12 @@ if [ -z "${DISPLAY:-}" ]; then
   exec xvfb-run -a -s "-screen 0 1280x800x24" "$0" "$out" "$@"
 fi
 export LIBGL_ALWAYS_SOFTWARE=1 PATH="/usr/bin:$PATH" PYENV_VERSION=system
-port="${AGNC_DEMO_PORT:-11391}"
+# A master of its own on a free port (AGNC_DEMO_PORT to choose one): demos run
+# side by side must not share a master.
+port="${AGNC_DEMO_PORT:-$(/usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])')}"
 export ROS_MASTER_URI="http://localhost:$port"
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
-log="${ROS_HOME:-/tmp}/demo_roslaunch.log"
+log="$(mktemp -t agnc_demo_roslaunch.XXXXXX.log)"  # one per run
 
 roslaunch -p "$port" agnc_pgo demo.launch rviz:=true output:=log "$@" >"$log" 2>&1 &
 launch_pid=$!

@@ -74,10 +74,16 @@ record consumer_runs $? "$work/consumer_run.log"
 [ "$(head -1 "$work/ceres.log")" = 0 ] && [ "$(wc -l <"$work/ceres.log")" -eq 1 ]
 record ceres_linked_once $? "$work/ceres.log"
 
-# The launch files from the install space. Own master port per launch.
-launch_and_check() {  # NAME PORT CHECK_PYTHON roslaunch-args...
-  local name="$1" port="$2" check="$3"
-  shift 3
+# The launch files from the install space, each with its own master on a port
+# the kernel reports free, so that test runs side by side (two clones, CI and a
+# developer) never share a master and shut each other's nodes down.
+free_port() {
+  /usr/bin/python3 -c 'import socket; s = socket.socket(); s.bind(("", 0)); print(s.getsockname()[1])'
+}
+launch_and_check() {  # NAME CHECK_PYTHON roslaunch-args...
+  local name="$1" check="$2" port
+  port=$(free_port)
+  shift 2
   in_install_space "export ROS_MASTER_URI=http://localhost:$port; \
     roslaunch -p $port agnc_pgo $* >'$work/$name.roslaunch.log' 2>&1 & pid=\$!; \
     /usr/bin/python3 -c '$check'; status=\$?; kill -INT \$pid; wait \$pid; exit \$status" \
@@ -94,7 +100,7 @@ rospy.init_node("install_check", anonymous=True)
 s = rospy.wait_for_message("/agnc_pgo_backend/status", GraphStatus, timeout=40)
 print("status: %d nodes" % s.nodes)
 '
-launch_and_check backend_launch 11421 "$status_check" backend.launch output:=log
+launch_and_check backend_launch "$status_check" backend.launch output:=log
 
 demo_check='
 import sys, time, rospy
@@ -119,7 +125,7 @@ print("status: %d nodes, %d loop closures, %d inliers" % (s.nodes, s.loop_closur
 sys.exit(0 if s.loop_closures > 0 and s.nodes == WORLD_POSES else 1)
 '
 demo_check="${demo_check//WORLD_POSES/$(grep -c '^VERTEX' "$world")}"
-launch_and_check demo_launch 11422 "$demo_check" demo.launch "dataset:=$world" rate:=1000 output:=log
+launch_and_check demo_launch "$demo_check" demo.launch "dataset:=$world" rate:=1000 output:=log
 
 {
   echo '<?xml version="1.0" encoding="utf-8"?>'
