@@ -27,7 +27,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   for (const core::Pose& p : sidecar.odom_poses) fuzz::checkPose(p);
   for (const SidecarLoop& l : sidecar.loops) {
     AGNC_FUZZ_CHECK(l.from >= 0 && l.to >= 0 && static_cast<size_t>(std::max(l.from, l.to)) < sidecar.stamps.size());
-    AGNC_FUZZ_CHECK(l.graduation.mu >= 0 && l.graduation.mu <= 1 && std::isfinite(l.score));
+    AGNC_FUZZ_CHECK(l.state.graduation.mu >= 0 && l.state.graduation.mu <= 1 && std::isfinite(l.score));
     AGNC_FUZZ_CHECK(l.source.size() <= kMaxSourceBytes);
   }
   // Paired with the g2o: a match means every index is in range.

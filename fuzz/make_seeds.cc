@@ -55,11 +55,11 @@ ros_backend::Sidecar sidecarOfFixedGraph() {
     ros_backend::SidecarLoop l;
     l.from = k == 0 ? 5 : 4;
     l.to = k == 0 ? 0 : 1;
-    l.graduation.mu = 0.5;
-    l.graduation.step = 3;
-    l.graduation.alpha = 0.25;
-    l.graduation.graduating = k == 1;
-    l.mode = core::LoopOverride::kForceInlier;
+    l.state.graduation.mu = 0.5;
+    l.state.graduation.step = 3;
+    l.state.graduation.alpha = 0.25;
+    l.state.graduation.graduating = k == 1;
+    l.state.override_mode = core::LoopOverride::kForceInlier;
     l.from_stamp = s.stamps[l.from];
     l.to_stamp = s.stamps[l.to];
     l.source = k == 0 ? "front end" : "outlier %";

@@ -2,26 +2,37 @@
 // (used by the ROS back-end to load graphs and to roll back failed updates).
 #include <stdexcept>
 #include <string>
+#include <vector>
 
 #include "agnc_pgo/core/incremental_gnc.h"
 
 namespace agnc_pgo {
 namespace core {
 
-void IncrementalGnc::restore(const Poses& estimate, const std::vector<GraduationState>& graduation,
-                             const std::vector<LoopOverride>& overrides) {
+std::vector<LoopClosureState> IncrementalGnc::loopStates() const {
+  std::vector<LoopClosureState> out;
+  out.reserve(loops_.size());
+  for (const LoopClosure& loop : loops_)
+    out.push_back({loop.graduation, loop.override_mode, loop.uncorroborated, loop.undone});
+  return out;
+}
+
+void IncrementalGnc::restore(const Poses& estimate, const std::vector<LoopClosureState>& states) {
   if (static_cast<int>(estimate.size()) != numPoses())
     throw std::invalid_argument("restore: " + std::to_string(estimate.size()) + " poses for a graph of " +
                                 std::to_string(numPoses()));
-  if (graduation.size() != loops_.size() || overrides.size() != loops_.size())
-    throw std::invalid_argument("restore: loop-closure state for " + std::to_string(graduation.size()) +
-                                " of " + std::to_string(loops_.size()) + " loop closures");
+  if (states.size() != loops_.size())
+    throw std::invalid_argument("restore: loop-closure state for " + std::to_string(states.size()) + " of " +
+                                std::to_string(loops_.size()) + " loop closures");
   for (int i = 0; i < numPoses(); ++i) solver_.setPose(i, estimate[i]);
   for (size_t k = 0; k < loops_.size(); ++k) {
     LoopClosure& loop = loops_[k];
-    loop.override_mode = overrides[k];
+    const LoopClosureState& saved = states[k];
+    loop.override_mode = saved.override_mode;
     applyOverride(&loop);  // sets the factor mode, clears graduating
-    loop.graduation = graduation[k];
+    loop.graduation = saved.graduation;
+    loop.uncorroborated = saved.uncorroborated;
+    loop.undone = saved.undone;
     solver_.setMu(loop.factor, loop.graduation.mu);
   }
   pending_.clear();

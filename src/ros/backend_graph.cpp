@@ -53,7 +53,6 @@ void BackendGraph::reset() {
   has_last_odometry_ = false;
   restarted_.clear();
   carried_iterations_ = carried_gnc_steps_ = 0;
-  carried_uncorroborated_.clear();
 }
 
 std::string BackendGraph::addOdometry(const OdometryInput& input, bool* keyframe) {
@@ -182,29 +181,21 @@ std::vector<std::string> BackendGraph::retryHeld(double now, std::vector<double>
 
 void BackendGraph::rememberGood() {
   last_good_.estimate = engine_->poses();
-  last_good_.graduation.clear();
-  last_good_.modes.clear();
-  for (const core::LoopClosure& loop : engine_->loopClosures()) {
-    last_good_.graduation.push_back(loop.graduation);
-    last_good_.modes.push_back(loop.override_mode);
-  }
+  last_good_.loops = engine_->loopStates();
 }
 
 void BackendGraph::rollBack() {
   // Rebuild from the edges with the last good estimate; loop closures added
   // since (no good state) are dropped with their metadata.
   SavedGraph saved = save();
-  const size_t good_loops = last_good_.graduation.size();
+  const size_t good_loops = last_good_.loops.size();
   saved.loops.resize(std::min(saved.loops.size(), good_loops));
   core::Poses estimate = last_good_.estimate;
   estimate.resize(std::min(estimate.size(), saved.estimate.size()));
   for (size_t i = estimate.size(); i < saved.estimate.size(); ++i)
     estimate.push_back(estimate[i - 1] * saved.odometry[i - 1].measurement);
   saved.estimate = estimate;
-  for (size_t k = 0; k < saved.loops.size(); ++k) {
-    saved.loops[k].graduation = last_good_.graduation[k];
-    saved.loops[k].mode = last_good_.modes[k];
-  }
+  for (size_t k = 0; k < saved.loops.size(); ++k) saved.loops[k].state = last_good_.loops[k];
   adopt(build(saved));
   loop_meta_.resize(saved.loops.size());
   restarted_.clear();
@@ -222,18 +213,6 @@ bool BackendGraph::guardedSolve(const std::string& what, const std::function<cor
     return false;
   }
   restarted_.clear();
-  // A carried uncorroborated flag holds until an update touches the loop closure.
-  const auto& loops = engine_->loopClosures();
-  for (size_t k = 0; k < carried_uncorroborated_.size() && k < loops.size(); ++k) {
-    if (!carried_uncorroborated_[k]) continue;
-    const core::GraduationState& now = loops[k].graduation;
-    const bool known = k < last_good_.graduation.size();
-    const core::GraduationState& before = known ? last_good_.graduation[k] : now;
-    if (!known || now.mu != before.mu || now.step != before.step || now.init_step != before.init_step ||
-        now.mu_init != before.mu_init || now.steps_at_one != before.steps_at_one ||
-        now.graduating != before.graduating || loops[k].override_mode != last_good_.modes[k])
-      carried_uncorroborated_[k] = false;
-  }
   rememberGood();
   ++updates_;
   noteDecisions();
@@ -320,11 +299,11 @@ SavedGraph BackendGraph::save() const {
   g.prior_value = odom_poses_.empty() ? core::Pose() : odom_poses_.front();
   g.odometry = engine_->odometry();
   const auto& loops = engine_->loopClosures();
+  const std::vector<core::LoopClosureState> states = engine_->loopStates();
   for (size_t k = 0; k < loops.size(); ++k) {
     SavedLoop l;
     l.edge = loops[k].edge;
-    l.graduation = loops[k].graduation;
-    l.mode = loops[k].override_mode;
+    l.state = states[k];
     l.from_stamp = loop_meta_[k].from_stamp;
     l.to_stamp = loop_meta_[k].to_stamp;
     l.source = loop_meta_[k].source;
@@ -354,13 +333,9 @@ std::unique_ptr<core::IncrementalGnc> BackendGraph::build(const SavedGraph& save
                                 std::to_string(n) + " poses");
   for (const SavedLoop& l : saved.loops) engine->addLoopClosure(l.edge);
   if (saved.has_state) {
-    std::vector<core::GraduationState> graduation;
-    std::vector<core::LoopOverride> modes;
-    for (const SavedLoop& l : saved.loops) {
-      graduation.push_back(l.graduation);
-      modes.push_back(l.mode);
-    }
-    engine->restore(saved.estimate, graduation, modes);
+    std::vector<core::LoopClosureState> states;
+    for (const SavedLoop& l : saved.loops) states.push_back(l.state);
+    engine->restore(saved.estimate, states);
   }
   return engine;
 }
@@ -368,11 +343,6 @@ std::unique_ptr<core::IncrementalGnc> BackendGraph::build(const SavedGraph& save
 void BackendGraph::adopt(std::unique_ptr<core::IncrementalGnc> engine) {
   carried_iterations_ += engine_->totalIterations();
   carried_gnc_steps_ += engine_->totalGncSteps();
-  const auto& old_loops = engine_->loopClosures();
-  std::vector<bool> carried(engine->loopClosures().size(), false);
-  for (size_t k = 0; k < carried.size() && k < old_loops.size(); ++k)
-    carried[k] = old_loops[k].uncorroborated || (k < carried_uncorroborated_.size() && carried_uncorroborated_[k]);
-  carried_uncorroborated_ = carried;
   engine_ = std::move(engine);
 }
 
@@ -470,7 +440,7 @@ GraphSnapshotPtr BackendGraph::snapshot(bool with_edges) const {
     edge.score = loop_meta_[k].score;
     edge.test_distance = engine_->schedule().classificationDistance(l.distance);
     edge.threshold = engine_->schedule().thresholds().q95;
-    edge.uncorroborated = l.uncorroborated || (k < carried_uncorroborated_.size() && carried_uncorroborated_[k]);
+    edge.uncorroborated = l.uncorroborated;
     edge.dormant = l.dormant;
     edge.decided_in_update = k < decisions_.size() ? decisions_[k].update : updates_;
     s->edges.push_back(edge);

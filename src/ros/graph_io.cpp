@@ -34,8 +34,7 @@ Sidecar sidecarOf(const SavedGraph& g) {
     SidecarLoop out;
     out.from = l.edge.from;
     out.to = l.edge.to;
-    out.graduation = l.graduation;
-    out.mode = l.mode;
+    out.state = l.state;
     out.from_stamp = toSidecar(l.from_stamp);
     out.to_stamp = toSidecar(l.to_stamp);
     out.source = l.source;
@@ -89,8 +88,7 @@ SavedGraph combine(const core::PoseGraph& graph, const Sidecar& s) {
     l.edge = graph.edges[s.odometry_edges + k];
     l.edge.kind = core::EdgeKind::kLoopClosure;
     l.edge.is_outlier = in.is_outlier;
-    l.graduation = in.graduation;
-    l.mode = in.mode;
+    l.state = in.state;
     l.from_stamp = fromSidecar(in.from_stamp);
     l.to_stamp = fromSidecar(in.to_stamp);
     l.source = in.source;

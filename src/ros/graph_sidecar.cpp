@@ -21,11 +21,14 @@ using core::kMaxAbsInformation;
 using core::ParseError;
 
 constexpr const char* kMagic = "agnc_pgo_sidecar";
-constexpr int kVersion = 2;
+constexpr int kVersion = 3;
+constexpr int kOldestVersion = 2;  // without uncorroborated / undone
 constexpr int kMaxStep = 1000;              // GNC steps of one graduation (a loop closure needs <= 6)
 constexpr int kMaxStepsAtOne = 1000000;
 constexpr std::size_t kNodeTokens = 11;     // NODE i sec nsec x y z qx qy qz qw
-constexpr std::size_t kLoopTokens = 19;     // LOOP k from to mode, 7 graduation values, 4 stamps, score, label, source
+// LOOP k from to mode, 7 graduation values, uncorroborated undone (version 3),
+// 4 stamps, score, label, source
+constexpr std::size_t kLoopTokens = 21;
 
 std::string hex(unsigned long value) {
   std::ostringstream out;
@@ -203,8 +206,9 @@ class SidecarParser {
       LineReader r = line();
       r.expectCount(2);
       r.keyword(kMagic);
-      if (r.integerIn("version", 0, 1000000) != kVersion)
-        r.fail("unsupported sidecar version (this back-end reads version 2)");
+      version_ = static_cast<int>(r.integerIn("version", 0, 1000000));
+      if (version_ < kOldestVersion || version_ > kVersion)
+        r.fail("unsupported sidecar version (this back-end reads versions 2 and 3)");
     }
     {
       LineReader r = line();
@@ -273,7 +277,7 @@ class SidecarParser {
 
   void parseLoop(Sidecar* s, std::size_t k) {
     LineReader r = line();
-    r.expectCount(kLoopTokens);
+    r.expectCount(version_ == kVersion ? kLoopTokens : kLoopTokens - 2);
     r.keyword("LOOP");
     r.integerIn("LOOP index", static_cast<long long>(k), static_cast<long long>(k));
     const long long last_node = static_cast<long long>(s->stamps.size()) - 1;
@@ -281,8 +285,8 @@ class SidecarParser {
     l.from = static_cast<int>(r.integerIn("from", 0, last_node));
     l.to = static_cast<int>(r.integerIn("to", 0, last_node));
     if (l.from == l.to) r.fail("loop closure joins a node to itself");
-    l.mode = static_cast<core::LoopOverride>(r.integerIn("override mode", 0, 2));
-    core::GraduationState& g = l.graduation;
+    l.state.override_mode = static_cast<core::LoopOverride>(r.integerIn("override mode", 0, 2));
+    core::GraduationState& g = l.state.graduation;
     g.mu = r.numberIn("mu", 0.0, 1.0);
     g.step = static_cast<int>(r.integerIn("step", 0, kMaxStep));
     g.init_step = static_cast<int>(r.integerIn("init_step", 0, kMaxStep));
@@ -290,6 +294,10 @@ class SidecarParser {
     g.alpha = r.numberIn("alpha", 0.0, 1.0);
     g.steps_at_one = static_cast<int>(r.integerIn("steps_at_one", 0, kMaxStepsAtOne));
     g.graduating = r.integerIn("graduating", 0, 1) != 0;
+    if (version_ == kVersion) {
+      l.state.uncorroborated = r.integerIn("uncorroborated", 0, 1) != 0;
+      l.state.undone = r.integerIn("undone", 0, 1) != 0;
+    }
     l.from_stamp = r.stamp("from stamp");
     l.to_stamp = r.stamp("to stamp");
     l.score = r.numberIn("score", -1e300, 1e300);
@@ -301,6 +309,7 @@ class SidecarParser {
   const std::string& name_;
   std::vector<std::string> lines_;
   std::size_t next_ = 0;
+  int version_ = kVersion;
 };
 
 }  // namespace
@@ -331,14 +340,14 @@ std::string formatSidecar(const Sidecar& s, const std::string& g2o_text) {
   out << "odometry_edges " << s.odometry_edges << '\n' << "loops " << s.loops.size() << '\n';
   for (std::size_t k = 0; k < s.loops.size(); ++k) {
     const SidecarLoop& l = s.loops[k];
-    const core::GraduationState& g = l.graduation;
+    const core::GraduationState& g = l.state.graduation;
     if (!std::isfinite(l.score) || !std::isfinite(g.mu) || !std::isfinite(g.mu_init) || !std::isfinite(g.alpha))
       throw std::invalid_argument("sidecar: loop closure " + std::to_string(k) + " has a non-finite value");
     if (l.source.size() > kMaxSourceBytes)
       throw std::invalid_argument("sidecar: source of loop closure " + std::to_string(k) + " is too long");
-    out << "LOOP " << k << ' ' << l.from << ' ' << l.to << ' ' << static_cast<int>(l.mode) << ' ' << g.mu << ' '
-        << g.step << ' ' << g.init_step << ' ' << g.mu_init << ' ' << g.alpha << ' ' << g.steps_at_one << ' '
-        << (g.graduating ? 1 : 0) << ' ' << l.from_stamp.sec << ' ' << l.from_stamp.nsec << ' ' << l.to_stamp.sec
+    out << "LOOP " << k << ' ' << l.from << ' ' << l.to << ' ' << static_cast<int>(l.state.override_mode) << ' ' << g.mu
+        << ' ' << g.step << ' ' << g.init_step << ' ' << g.mu_init << ' ' << g.alpha << ' ' << g.steps_at_one << ' '
+        << (g.graduating ? 1 : 0) << ' ' << (l.state.uncorroborated ? 1 : 0) << ' ' << (l.state.undone ? 1 : 0) << ' ' << l.from_stamp.sec << ' ' << l.from_stamp.nsec << ' ' << l.to_stamp.sec
         << ' ' << l.to_stamp.nsec << ' ' << l.score << ' ' << (l.is_outlier ? 1 : 0) << ' '
         << encodeSource(l.source) << '\n';
   }

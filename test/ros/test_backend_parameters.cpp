@@ -266,10 +266,11 @@ TEST(RuntimeParameters, GncChangeRebuildsTheEngineFromItsExactState) {
   }
   ASSERT_EQ(after.loops.size(), 3u);
   for (size_t k = 0; k < 2; ++k) {
-    EXPECT_EQ(after.loops[k].graduation.mu, before.loops[k].graduation.mu) << k;
-    EXPECT_EQ(after.loops[k].graduation.step, before.loops[k].graduation.step) << k;
-    EXPECT_EQ(after.loops[k].graduation.init_step, before.loops[k].graduation.init_step) << k;
+    EXPECT_EQ(after.loops[k].state.graduation.mu, before.loops[k].state.graduation.mu) << k;
+    EXPECT_EQ(after.loops[k].state.graduation.step, before.loops[k].state.graduation.step) << k;
+    EXPECT_EQ(after.loops[k].state.graduation.init_step, before.loops[k].state.graduation.init_step) << k;
     EXPECT_EQ(g.engine()->loopClosures()[k].inlier, k == 0) << k;
+    EXPECT_EQ(g.engine()->loopClosures()[k].uncorroborated, k == 1) << k;  // the rebuilt engine knows why
   }
   EXPECT_EQ(g.pendingLoopClosures(), 1);  // still to be judged
   EXPECT_EQ(g.totalGncSteps(), steps);    // totals carried over

@@ -79,12 +79,14 @@ SavedGraph sampleGraph(int dimension, int nodes = 30) {
     l.edge.information = identity(dimension) * 25.0;
     l.edge.kind = core::EdgeKind::kLoopClosure;
     l.edge.is_outlier = k == 1;
-    l.graduation.mu = k == 0 ? 1.0 : 0.25;
-    l.graduation.step = 5;
-    l.graduation.init_step = 3;
-    l.graduation.alpha = 0.5;
-    l.graduation.steps_at_one = 2;
-    l.mode = k == 0 ? core::LoopOverride::kAuto : core::LoopOverride::kForceOutlier;
+    l.state.graduation.mu = k == 0 ? 1.0 : 0.25;
+    l.state.graduation.step = 5;
+    l.state.graduation.init_step = 3;
+    l.state.graduation.alpha = 0.5;
+    l.state.graduation.steps_at_one = 2;
+    l.state.override_mode = k == 0 ? core::LoopOverride::kAuto : core::LoopOverride::kForceOutlier;
+    l.state.uncorroborated = k == 1;
+    l.state.undone = k == 1;
     l.from_stamp = g.stamps[l.edge.from];
     l.to_stamp = g.stamps[k];
     l.source = k == 0 ? "front end %1 with spaces\nand a newline" : "";
@@ -130,8 +132,10 @@ TEST(GraphIo, SaveLoadSaveIsByteIdentical) {
     EXPECT_TRUE(loaded.has_state);
     ASSERT_EQ(loaded.loops.size(), 2u);
     EXPECT_EQ(loaded.loops[0].source, "front end %1 with spaces\nand a newline");
-    EXPECT_EQ(loaded.loops[1].mode, core::LoopOverride::kForceOutlier);
+    EXPECT_EQ(loaded.loops[1].state.override_mode, core::LoopOverride::kForceOutlier);
     EXPECT_TRUE(loaded.loops[1].edge.is_outlier);
+    EXPECT_TRUE(loaded.loops[1].state.uncorroborated && loaded.loops[1].state.undone);
+    EXPECT_FALSE(loaded.loops[0].state.uncorroborated || loaded.loops[0].state.undone);
     EXPECT_EQ(loaded.stamps[7], ros::Time(107, 35000));
     saveGraph(loaded, b);
     EXPECT_EQ(readFile(a), readFile(b));
@@ -139,6 +143,35 @@ TEST(GraphIo, SaveLoadSaveIsByteIdentical) {
     // The sidecars differ only in nothing: same g2o bytes, same state.
     EXPECT_EQ(meta_a, meta_b);
   }
+}
+
+// A sidecar saved before the engine's flags were kept (version 2: LOOP
+// lines without uncorroborated / undone) loads, the flags unset.
+TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
+  const std::string path = tempDir() + "/v2.g2o";
+  saveGraph(sampleGraph(2), path);
+  std::istringstream in(readFile(sidecarPath(path)));
+  std::string v2;
+  for (std::string line; std::getline(in, line);) {
+    if (line.compare(0, 9, "checksum ") == 0) break;
+    std::istringstream fields(line);
+    std::vector<std::string> f;
+    for (std::string t; fields >> t;) f.push_back(t);
+    if (f[0] == "agnc_pgo_sidecar") f[1] = "2";
+    if (f[0] == "LOOP") f.erase(f.begin() + 12, f.begin() + 14);
+    std::string joined;
+    for (const std::string& t : f) joined += (joined.empty() ? "" : " ") + t;
+    v2 += joined + "\n";
+  }
+  writeFile(sidecarPath(path), resign(v2 + "checksum 00000000\n"));
+  const SavedGraph loaded = loadGraph(path, identity(2));
+  ASSERT_EQ(loaded.loops.size(), 2u);
+  EXPECT_EQ(loaded.loops[1].state.override_mode, core::LoopOverride::kForceOutlier);
+  EXPECT_EQ(loaded.loops[1].source, "");
+  EXPECT_FALSE(loaded.loops[1].state.uncorroborated || loaded.loops[1].state.undone);
+  // A version-2 line length in a version-3 file is refused.
+  writeFile(sidecarPath(path), resign(replaceOnce(v2, "agnc_pgo_sidecar 2", "agnc_pgo_sidecar 3") + "checksum 00000000\n"));
+  expectLoadError(path, "expected 21 tokens, got 19");
 }
 
 // The reproducer of the SIGSEGV: counts whose sum wraps to the edge count.
@@ -166,7 +199,7 @@ TEST(GraphIo, SidecarValuesOutOfTheirDomainAreRefused) {
   std::istringstream fields(loop_line);
   std::vector<std::string> f;
   for (std::string t; fields >> t;) f.push_back(t);
-  ASSERT_EQ(f.size(), 19u);
+  ASSERT_EQ(f.size(), 21u);
   const auto withField = [&](int index, const std::string& value) {
     std::vector<std::string> g = f;
     g[index] = value;
@@ -182,13 +215,14 @@ TEST(GraphIo, SidecarValuesOutOfTheirDomainAreRefused) {
                {5, "nan", "mu: non-finite value 'nan'"},
                {6, "2147483647", "step 2147483647 is outside [0, 1000]"},
                {4, "3", "override mode 3 is outside"},
-               {16, "nan", "score: non-finite"}};
+               {12, "2", "uncorroborated 2 is outside [0, 1]"},
+               {18, "nan", "score: non-finite"}};
   for (const auto& c : cases) {
     SCOPED_TRACE(c.reason);
     writeFile(sidecarPath(path), withField(c.field, c.value));
     expectLoadError(path, c.reason);
   }
-  writeFile(sidecarPath(path), withField(18, "=" + std::string(5000, 'x')));
+  writeFile(sidecarPath(path), withField(20, "=" + std::string(5000, 'x')));
   expectLoadError(path, "source is longer than 4096 bytes");
   // A zero quaternion in a NODE's odometry pose.
   const std::size_t node = meta.find("NODE 3 ");
@@ -211,7 +245,7 @@ TEST(GraphIo, DamagedOrMismatchedPairsAreRefused) {
   const std::string other = tempDir() + "/other.g2o";
   saveGraph(sampleGraph(2), path);
   SavedGraph changed = sampleGraph(2);
-  changed.loops[0].mode = core::LoopOverride::kForceInlier;  // same counts, different state
+  changed.loops[0].state.override_mode = core::LoopOverride::kForceInlier;  // same counts, different state
   changed.estimate[4].translation.x() += 0.5;
   saveGraph(changed, other);
   const std::string g2o = readFile(path), meta = readFile(sidecarPath(path));

@@ -47,6 +47,16 @@ struct LoopClosure {
   LoopOverride override_mode = LoopOverride::kAuto;
 };
 
+// What the engine decided about a loop closure beyond what the estimate
+// shows: what loopStates() reports, a saved graph keeps, and restore() puts
+// back, so that an engine rebuilt from them goes on as the saved one would.
+struct LoopClosureState {
+  GraduationState graduation;
+  LoopOverride override_mode = LoopOverride::kAuto;
+  bool uncorroborated = false;  // LoopClosure::uncorroborated
+  bool undone = false;          // LoopClosure::undone
+};
+
 struct UpdateStats {
   int gnc_steps = 0;       // steps with at least one graduating loop closure
   int iterations = 0;      // Gauss-Newton iterations (= solves)
@@ -104,13 +114,14 @@ class IncrementalGnc {
   // the current estimate (O(loop closures)).
   void classifyAll();
 
+  // In loopClosures() order, what restore() needs besides the estimate.
+  std::vector<LoopClosureState> loopStates() const;
   // Restores a saved state without solving (loading a saved graph, rolling
   // back a failed update): the estimate (one pose per node) and, in
-  // loopClosures() order, each loop closure's graduation state and override.
+  // loopClosures() order, each loop closure's state (loopStates()).
   // Clears pending work and reclassifies. Throws std::invalid_argument on a
   // size mismatch. (Implemented in incremental_gnc_restore.cc.)
-  void restore(const Poses& estimate, const std::vector<GraduationState>& graduation,
-               const std::vector<LoopOverride>& overrides);
+  void restore(const Poses& estimate, const std::vector<LoopClosureState>& loops);
 
   int numPoses() const { return solver_.numPoses(); }
   Pose pose(int id) const { return solver_.pose(id); }

@@ -110,8 +110,7 @@ class BackendGraph {
   };
   struct LastGood {
     core::Poses estimate;
-    std::vector<core::GraduationState> graduation;
-    std::vector<core::LoopOverride> modes;
+    std::vector<core::LoopClosureState> loops;
   };
 
   std::string tryAddLoop(const LoopClosureInput& input, bool* added, bool* hold);
@@ -124,7 +123,7 @@ class BackendGraph {
                     core::UpdateStats* stats, std::string* error);
   std::unique_ptr<core::IncrementalGnc> build(const SavedGraph& saved) const;
   // Replaces the engine by one rebuilt from this graph's state, carrying
-  // over what the state does not hold (totals, uncorroborated flags).
+  // over what the state does not hold (the totals).
   void adopt(std::unique_ptr<core::IncrementalGnc> engine);
   void setEngineOverride(int index, core::LoopOverride mode);
 
@@ -161,9 +160,6 @@ class BackendGraph {
   std::vector<int> restarted_;
   // Carried over from engines replaced by adopt().
   long carried_iterations_ = 0, carried_gnc_steps_ = 0;
-  // Per loop closure: judged uncorroborated by a replaced engine (restore()
-  // cannot set it); cleared once an update changes its graduation.
-  std::vector<bool> carried_uncorroborated_;
 };
 
 }  // namespace ros_backend

@@ -18,8 +18,7 @@ namespace ros_backend {
 
 struct SavedLoop {
   core::Edge edge;
-  core::GraduationState graduation;
-  core::LoopOverride mode = core::LoopOverride::kAuto;
+  core::LoopClosureState state;  // graduation, override, the engine's flags
   ros::Time from_stamp, to_stamp;
   std::string source;
   double score = 0.0;

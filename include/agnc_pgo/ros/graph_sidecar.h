@@ -1,10 +1,11 @@
 // The back-end's graph sidecar (FILE.meta next to FILE, a g2o file): what a
 // g2o file cannot hold (keyframe stamps and odometry poses, the prior, which
-// edges are odometry, each loop closure's graduation state, override, stamps,
-// source and score). ROS-free, so the fuzz target can call the parser.
+// edges are odometry, each loop closure's state (core::LoopClosureState),
+// stamps, source and score). ROS-free, so the fuzz target can call the parser.
 //
-// Format (version 2), one record per line:
-//   agnc_pgo_sidecar 2
+// Format (version 3; version 2, without the engine's two flags per loop
+// closure, is read as well, the flags unset), one record per line:
+//   agnc_pgo_sidecar 3
 //   g2o BYTES CRC32          the g2o file this sidecar belongs to
 //   dimension D
 //   prior x y z qx qy qz qw T  then T*T information entries (row-major)
@@ -36,8 +37,7 @@ struct SidecarStamp {
 
 struct SidecarLoop {
   int from = 0, to = 0;
-  core::GraduationState graduation;
-  core::LoopOverride mode = core::LoopOverride::kAuto;
+  core::LoopClosureState state;
   SidecarStamp from_stamp, to_stamp;
   std::string source;  // at most kMaxSourceBytes
   double score = 0.0;
