@@ -244,7 +244,13 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
     settle(plan.first, maxSettleIterations(), plan.last_step, stats);
     rolled_back = trial && solver_.objective(plan.first) > before.objective;
     if (rolled_back) {
+      const std::vector<int> strained = strainedLandings(before, plan);
       next = rollBack(before, plan);
+      // A group that agrees with itself and that the map refuses is evidence
+      // against the map too: an earlier landing it contradicts may be what
+      // is wrong. Whatever else was pending is judged in the next pass.
+      if (!strained.empty() && releaseAndLand(plan.cycles, strained, stats, first_estimate))
+        needs_restart_.clear();
     } else {
       const bool refines = needsRefinement(plan, window_before);
       if (*first_estimate && (refines || !plan.explained.empty())) {
@@ -256,6 +262,7 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
   }
   if (!rolled_back) {
     finish(plan, *stats);
+    for (int index : plan.cycles) loops_[index].landed = loops_[index].inlier;
     next = explainedAfterLanding(plan.explained);
     needs_restart_.clear();
   }
@@ -271,7 +278,8 @@ IncrementalGnc::Snapshot IncrementalGnc::snapshot(int first) const {
   for (int i = first; i < numPoses(); ++i) s.estimate.push_back(solver_.pose(i));
   s.loops.reserve(loops_.size());
   for (const LoopClosure& l : loops_)
-    s.loops.push_back({l.graduation, l.distance, l.weight, l.uncorroborated, l.undone, l.inlier, l.dormant});
+    s.loops.push_back(
+        {l.graduation, l.distance, l.weight, l.uncorroborated, l.undone, l.landed, l.inlier, l.dormant});
   s.objective = solver_.objective(first);
   return s;
 }
@@ -286,25 +294,85 @@ std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePl
     loop.weight = saved.weight;
     loop.uncorroborated = saved.uncorroborated;
     loop.undone = saved.undone;
+    loop.landed = saved.landed;
     loop.inlier = saved.inlier;
     solver_.setMu(loop.factor, loop.graduation.mu);
     setDormant(&loop, saved.dormant);
   }
   // As if the map had not explained them (judgeFar): rejected at mu = 1; a
   // later corroborating loop closure starts another trial with them.
-  for (int index : plan.cycles) {
-    LoopClosure& loop = loops_[index];
-    loop.uncorroborated = true;
-    loop.undone = true;  // not judged by the map again: no path to keep
-    paths_ruled_out_.erase(index);
-    schedule_.startAtOne(&loop.graduation);
-    finishAt(&loop, 1.0);
-    refresh(&loop);
-  }
+  for (int index : plan.cycles) rejectAsUndone(index);
   std::vector<int> again;
   for (int index : pending_)
     if (std::find(plan.cycles.begin(), plan.cycles.end(), index) == plan.cycles.end()) again.push_back(index);
   return again;
+}
+
+void IncrementalGnc::rejectAsUndone(int index) {
+  LoopClosure& loop = loops_[index];
+  loop.uncorroborated = true;
+  loop.undone = true;  // not judged by the map again: no path to keep
+  loop.landed = false;
+  paths_ruled_out_.erase(index);
+  schedule_.startAtOne(&loop.graduation);
+  finishAt(&loop, 1.0);
+  refresh(&loop);
+}
+
+std::vector<int> IncrementalGnc::strainedLandings(const Snapshot& before, const UpdatePlan& plan) const {
+  // Only a group is evidence enough against the map: a lone far loop
+  // closure that the map explained and the objective refused is far more
+  // often a random outlier. Landings older than the trial's window were
+  // held fixed: it could not strain them.
+  std::vector<int> strained;
+  const bool corroborated = plan.cycles.size() > plan.explained.size();
+  if (!corroborated) return strained;
+  for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
+    const LoopClosure& loop = loops_[index];
+    if (!loop.landed || loop.override_mode != LoopOverride::kAuto || !before.loops[index].inlier ||
+        newerEnd(loop.edge) < plan.first)
+      continue;
+    if (!schedule_.isInlier(schedule_.distanceOf(solver_.whitenedNorm(loop.factor)))) strained.push_back(index);
+  }
+  return strained;
+}
+
+bool IncrementalGnc::releaseAndLand(const std::vector<int>& group, const std::vector<int>& strained,
+                                    UpdateStats* stats, std::function<void()>* first_estimate) {
+  // The window frees the cycles of both, so the map can leave the released
+  // landings; they stay in the objective, at mu = 1 where the map ends, so
+  // the comparison with the estimate before is on the same cost.
+  UpdatePlan plan;
+  plan.first = numPoses();
+  for (int index : group) plan.first = std::min(plan.first, olderEnd(loops_[index].edge));
+  for (int index : strained) plan.first = std::min(plan.first, olderEnd(loops_[index].edge));
+  plan.oldest = plan.first;
+  plan.moves = true;
+  const Snapshot before = snapshot(plan.first);
+  for (int index : strained) solver_.setMode(loops_[index].factor, FactorMode::kDisabled);
+  for (int index : group) land(index, &plan);
+  solver_.resetTrustRegion();
+  selectGraduating(&plan);
+  const Poses window_before = windowPoses(plan);
+  runGncSteps(&plan, stats);
+  settle(plan.first, maxSettleIterations(), plan.last_step, stats);
+  for (int index : strained) {
+    solver_.setMode(loops_[index].factor, robustMode());
+    rejectAsUndone(index);
+  }
+  if (solver_.objective(plan.first) > before.objective) {
+    rollBack(before, plan);
+    return false;
+  }
+  const bool refines = needsRefinement(plan, window_before);
+  if (*first_estimate && refines) {
+    (*first_estimate)();
+    *first_estimate = nullptr;
+  }
+  if (refines) refine(stats);
+  finish(plan, *stats);
+  for (int index : group) loops_[index].landed = loops_[index].inlier;
+  return true;
 }
 
 std::vector<int> IncrementalGnc::explainedAfterLanding(const std::vector<int>& landed) {

@@ -13,7 +13,7 @@ std::vector<LoopClosureState> IncrementalGnc::loopStates() const {
   std::vector<LoopClosureState> out;
   out.reserve(loops_.size());
   for (const LoopClosure& loop : loops_)
-    out.push_back({loop.graduation, loop.override_mode, loop.uncorroborated, loop.undone});
+    out.push_back({loop.graduation, loop.override_mode, loop.uncorroborated, loop.undone, loop.landed});
   return out;
 }
 
@@ -33,6 +33,7 @@ void IncrementalGnc::restore(const Poses& estimate, const std::vector<LoopClosur
     loop.graduation = saved.graduation;
     loop.uncorroborated = saved.uncorroborated;
     loop.undone = saved.undone;
+    loop.landed = saved.landed;
     solver_.setMu(loop.factor, loop.graduation.mu);
   }
   pending_.clear();

@@ -22,13 +22,14 @@ using core::ParseError;
 
 constexpr const char* kMagic = "agnc_pgo_sidecar";
 constexpr int kVersion = 3;
-constexpr int kOldestVersion = 2;  // without uncorroborated / undone
+constexpr int kOldestVersion = 2;  // without the engine's three flags
 constexpr int kMaxStep = 1000;              // GNC steps of one graduation (a loop closure needs <= 6)
 constexpr int kMaxStepsAtOne = 1000000;
 constexpr std::size_t kNodeTokens = 11;     // NODE i sec nsec x y z qx qy qz qw
-// LOOP k from to mode, 7 graduation values, uncorroborated undone (version 3),
-// 4 stamps, score, label, source
-constexpr std::size_t kLoopTokens = 21;
+// LOOP k from to mode, 7 graduation values, uncorroborated undone landed
+// (version 3), 4 stamps, score, label, source
+constexpr std::size_t kLoopTokens = 22;
+constexpr std::size_t kFlagTokens = 3;  // not in version 2
 
 std::string hex(unsigned long value) {
   std::ostringstream out;
@@ -277,7 +278,7 @@ class SidecarParser {
 
   void parseLoop(Sidecar* s, std::size_t k) {
     LineReader r = line();
-    r.expectCount(version_ == kVersion ? kLoopTokens : kLoopTokens - 2);
+    r.expectCount(version_ == kVersion ? kLoopTokens : kLoopTokens - kFlagTokens);
     r.keyword("LOOP");
     r.integerIn("LOOP index", static_cast<long long>(k), static_cast<long long>(k));
     const long long last_node = static_cast<long long>(s->stamps.size()) - 1;
@@ -297,6 +298,7 @@ class SidecarParser {
     if (version_ == kVersion) {
       l.state.uncorroborated = r.integerIn("uncorroborated", 0, 1) != 0;
       l.state.undone = r.integerIn("undone", 0, 1) != 0;
+      l.state.landed = r.integerIn("landed", 0, 1) != 0;
     }
     l.from_stamp = r.stamp("from stamp");
     l.to_stamp = r.stamp("to stamp");
@@ -347,7 +349,8 @@ std::string formatSidecar(const Sidecar& s, const std::string& g2o_text) {
       throw std::invalid_argument("sidecar: source of loop closure " + std::to_string(k) + " is too long");
     out << "LOOP " << k << ' ' << l.from << ' ' << l.to << ' ' << static_cast<int>(l.state.override_mode) << ' ' << g.mu
         << ' ' << g.step << ' ' << g.init_step << ' ' << g.mu_init << ' ' << g.alpha << ' ' << g.steps_at_one << ' '
-        << (g.graduating ? 1 : 0) << ' ' << (l.state.uncorroborated ? 1 : 0) << ' ' << (l.state.undone ? 1 : 0) << ' ' << l.from_stamp.sec << ' ' << l.from_stamp.nsec << ' ' << l.to_stamp.sec
+        << (g.graduating ? 1 : 0) << ' ' << (l.state.uncorroborated ? 1 : 0) << ' ' << (l.state.undone ? 1 : 0) << ' '
+        << (l.state.landed ? 1 : 0) << ' ' << l.from_stamp.sec << ' ' << l.from_stamp.nsec << ' ' << l.to_stamp.sec
         << ' ' << l.to_stamp.nsec << ' ' << l.score << ' ' << (l.is_outlier ? 1 : 0) << ' '
         << encodeSource(l.source) << '\n';
   }

@@ -87,6 +87,7 @@ SavedGraph sampleGraph(int dimension, int nodes = 30) {
     l.state.override_mode = k == 0 ? core::LoopOverride::kAuto : core::LoopOverride::kForceOutlier;
     l.state.uncorroborated = k == 1;
     l.state.undone = k == 1;
+    l.state.landed = k == 0;
     l.from_stamp = g.stamps[l.edge.from];
     l.to_stamp = g.stamps[k];
     l.source = k == 0 ? "front end %1 with spaces\nand a newline" : "";
@@ -136,6 +137,8 @@ TEST(GraphIo, SaveLoadSaveIsByteIdentical) {
     EXPECT_TRUE(loaded.loops[1].edge.is_outlier);
     EXPECT_TRUE(loaded.loops[1].state.uncorroborated && loaded.loops[1].state.undone);
     EXPECT_FALSE(loaded.loops[0].state.uncorroborated || loaded.loops[0].state.undone);
+    EXPECT_TRUE(loaded.loops[0].state.landed);
+    EXPECT_FALSE(loaded.loops[1].state.landed);
     EXPECT_EQ(loaded.stamps[7], ros::Time(107, 35000));
     saveGraph(loaded, b);
     EXPECT_EQ(readFile(a), readFile(b));
@@ -158,7 +161,7 @@ TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
     std::vector<std::string> f;
     for (std::string t; fields >> t;) f.push_back(t);
     if (f[0] == "agnc_pgo_sidecar") f[1] = "2";
-    if (f[0] == "LOOP") f.erase(f.begin() + 12, f.begin() + 14);
+    if (f[0] == "LOOP") f.erase(f.begin() + 12, f.begin() + 15);
     std::string joined;
     for (const std::string& t : f) joined += (joined.empty() ? "" : " ") + t;
     v2 += joined + "\n";
@@ -168,10 +171,11 @@ TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
   ASSERT_EQ(loaded.loops.size(), 2u);
   EXPECT_EQ(loaded.loops[1].state.override_mode, core::LoopOverride::kForceOutlier);
   EXPECT_EQ(loaded.loops[1].source, "");
-  EXPECT_FALSE(loaded.loops[1].state.uncorroborated || loaded.loops[1].state.undone);
+  for (const SavedLoop& l : loaded.loops)
+    EXPECT_FALSE(l.state.uncorroborated || l.state.undone || l.state.landed);
   // A version-2 line length in a version-3 file is refused.
   writeFile(sidecarPath(path), resign(replaceOnce(v2, "agnc_pgo_sidecar 2", "agnc_pgo_sidecar 3") + "checksum 00000000\n"));
-  expectLoadError(path, "expected 21 tokens, got 19");
+  expectLoadError(path, "expected 22 tokens, got 19");
 }
 
 // The reproducer of the SIGSEGV: counts whose sum wraps to the edge count.
@@ -199,7 +203,7 @@ TEST(GraphIo, SidecarValuesOutOfTheirDomainAreRefused) {
   std::istringstream fields(loop_line);
   std::vector<std::string> f;
   for (std::string t; fields >> t;) f.push_back(t);
-  ASSERT_EQ(f.size(), 21u);
+  ASSERT_EQ(f.size(), 22u);
   const auto withField = [&](int index, const std::string& value) {
     std::vector<std::string> g = f;
     g[index] = value;
@@ -216,13 +220,14 @@ TEST(GraphIo, SidecarValuesOutOfTheirDomainAreRefused) {
                {6, "2147483647", "step 2147483647 is outside [0, 1000]"},
                {4, "3", "override mode 3 is outside"},
                {12, "2", "uncorroborated 2 is outside [0, 1]"},
-               {18, "nan", "score: non-finite"}};
+               {14, "-1", "landed -1 is outside [0, 1]"},
+               {19, "nan", "score: non-finite"}};
   for (const auto& c : cases) {
     SCOPED_TRACE(c.reason);
     writeFile(sidecarPath(path), withField(c.field, c.value));
     expectLoadError(path, c.reason);
   }
-  writeFile(sidecarPath(path), withField(20, "=" + std::string(5000, 'x')));
+  writeFile(sidecarPath(path), withField(21, "=" + std::string(5000, 'x')));
   expectLoadError(path, "source is longer than 4096 bytes");
   // A zero quaternion in a NODE's odometry pose.
   const std::size_t node = meta.find("NODE 3 ");

@@ -41,6 +41,9 @@ struct LoopClosure {
   // test proposed it and the objective said no, so a tighter map alone does
   // not propose it again; a corroborating loop closure arriving later does.
   bool undone = false;
+  // Landed on its whole cycle by a trial that stood. A later group of loop
+  // closures that the map rejects because of it may release it (update()).
+  bool landed = false;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (GncOptions::Schedule::classification)
   bool dormant = false;       // out of the linear system (see GncOptions::Rejection::dormant_weight)
@@ -55,6 +58,7 @@ struct LoopClosureState {
   LoopOverride override_mode = LoopOverride::kAuto;
   bool uncorroborated = false;  // LoopClosure::uncorroborated
   bool undone = false;          // LoopClosure::undone
+  bool landed = false;          // LoopClosure::landed
 };
 
 struct UpdateStats {
@@ -97,6 +101,10 @@ class IncrementalGnc {
   // (SparsePoseGraphSolver::objective) than the estimate before it, the
   // estimate and every loop closure's state return to what they were, the
   // landed ones are rejected and the other new ones are judged again.
+  // If they were a group that corroborates itself and the trial pushed
+  // loop closures landed earlier beyond the inlier gate, the other
+  // hypothesis is tried as well: those landings released, the group landed;
+  // it stands if it ends lower than the estimate before it.
   //
   // Anytime: `first_estimate`, if given, is called (on this thread, at most
   // once) as soon as the estimate holds every new loop closure's effect on
@@ -159,7 +167,7 @@ class IncrementalGnc {
     struct LoopState {  // what a pass may change of a loop closure
       GraduationState graduation;
       double distance, weight;
-      bool uncorroborated, undone, inlier, dormant;
+      bool uncorroborated, undone, landed, inlier, dormant;
     };
     std::vector<LoopState> loops;
     double objective = 0.0;  // SparsePoseGraphSolver::objective(first)
@@ -176,6 +184,19 @@ class IncrementalGnc {
   // Returns to `before`, rejects the far loop closures the trial landed and
   // returns the other pending ones, to be judged again.
   std::vector<int> rollBack(const Snapshot& before, const UpdatePlan& plan);
+  // Rejected at mu = 1 after a trial the objective refused; judged again only
+  // with a corroborating loop closure.
+  void rejectAsUndone(int index);
+  // After a trial that landed a corroborated group and was refused (the
+  // estimate is still the trial's): the loop closures landed earlier, inliers
+  // before the trial, that it pushed beyond the inlier gate.
+  std::vector<int> strainedLandings(const Snapshot& before, const UpdatePlan& plan) const;
+  // The other hypothesis for a refused group: the strained landings were
+  // wrong. Lands the group without them; keeps the result (and rejects them)
+  // if it ends lower on the objective than the estimate before, else returns
+  // to it. True if it stands.
+  bool releaseAndLand(const std::vector<int>& group, const std::vector<int>& strained, UpdateStats* stats,
+                      std::function<void()>* first_estimate);
   // Loop closures rejected on arrival as unexplained (not undone trials) whose cycle overlaps
   // one of `landed`'s and that the map, tighter now, explains.
   std::vector<int> explainedAfterLanding(const std::vector<int>& landed);

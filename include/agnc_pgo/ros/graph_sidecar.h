@@ -3,7 +3,7 @@
 // edges are odometry, each loop closure's state (core::LoopClosureState),
 // stamps, source and score). ROS-free, so the fuzz target can call the parser.
 //
-// Format (version 3; version 2, without the engine's two flags per loop
+// Format (version 3; version 2, without the engine's three flags per loop
 // closure, is read as well, the flags unset), one record per line:
 //   agnc_pgo_sidecar 3
 //   g2o BYTES CRC32          the g2o file this sidecar belongs to
