@@ -1004,9 +1004,20 @@ def plot_scaling(results, path):
 
 
 def save(fig, path):
+    """Atomically: the figure goes to a temporary file that replaces PATH."""
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    temporary = path + ".tmp.png"
+    fig.savefig(temporary, dpi=110)
     plt.close(fig)
+    os.replace(temporary, path)
+
+
+def write_text(path, text):
+    """Atomically (temporary file + rename); a failed write raises."""
+    temporary = path + ".tmp"
+    with open(temporary, "w") as f:
+        f.write(text)
+    os.replace(temporary, path)
 
 
 def scaling_section(results, fits, graphs):
@@ -1096,8 +1107,7 @@ def write_report(results, graphs, args, started, load_before):
     if modes:
         lines += ["", "## Outlier modes (`--outlier-modes`)", ""] + modes_section(modes)
     path = os.path.join(args.out, "benchmark.md")
-    with open(path, "w") as f:
-        f.write("\n".join(lines) + "\n")
+    write_text(path, "\n".join(lines) + "\n")
     return path
 
 

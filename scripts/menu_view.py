@@ -8,6 +8,7 @@ map coordinates of its interactive marker (the midpoint of its endpoints):
 usage: menu_view.py --rviz-in FILE --rviz-out FILE [--width PX --height PX]
        [--backend /agnc_pgo_backend]"""
 import argparse
+import os
 import re
 import sys
 
@@ -51,8 +52,10 @@ def main():
     tail = re.sub(r"(\n      Scale: )[-0-9.e]+", r"\g<1>%.4f" % scale, tail, count=1)
     tail = re.sub(r"(\n      X: )[-0-9.e]+", r"\g<1>%.4f" % cx, tail, count=1)
     tail = re.sub(r"(\n      Y: )[-0-9.e]+", r"\g<1>%.4f" % cy, tail, count=1)
-    with open(args.rviz_out, "w") as f:
+    temporary = args.rviz_out + ".tmp"  # atomically: a reader sees the old file or the new one
+    with open(temporary, "w") as f:
         f.write(head + tail)
+    os.replace(temporary, args.rviz_out)
     print("%d %.4f %.4f %.4f %.4f %.4f" % (chosen.loop_index, x, y, scale, cx, cy))
 
 

@@ -10,13 +10,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
-#include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 #include <stdexcept>
 #include <string>
 
+#include "agnc_pgo/core/atomic_file.h"
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
 #include "agnc_pgo/eval/irl_io.h"
@@ -175,6 +175,54 @@ std::string jsonNumber(double v) {
   return s.str();
 }
 
+// CSV cells: a non-finite value is written as an empty cell (no inf or nan
+// reaches an output).
+std::string csvNumber(double v) { return std::isfinite(v) ? jsonNumber(v) : ""; }
+
+// The redundancy of the outlier-free graph: observations (odometry, true loop
+// closures, one prior per odometry chain) minus unknowns, in scalar degrees of
+// freedom. Its chi2 per redundancy is the a-posteriori variance factor: about
+// 1 when the stated covariances match the noise, far from 1 when they do not.
+long outlierFreeRedundancy(const IncrementalLog& log) {
+  long observations = 0;
+  for (const LogEntry& entry : log.entries)
+    if (!(entry.type == EntryType::kLoopClosure && entry.edge.is_outlier)) ++observations;
+  const long tangent = log.dimension == 2 ? 3 : 6;
+  return tangent * (observations - log.numPoses());
+}
+
+// metrics.json, estimate.g2o, trajectory.tum, reference.g2o,
+// loop_closures.csv and latency.csv in DIR, each written atomically; a
+// failed write throws naming the file.
+void writeOutputs(const std::string& dir_name, const std::string& json, const IncrementalLog& log,
+                  const ReplayResult& result, const PoseGraph& inlier_optimum) {
+  namespace fs = std::filesystem;
+  fs::create_directories(dir_name);
+  const fs::path dir(dir_name);
+  writeFileAtomically((dir / "metrics.json").string(), json);
+  writeG2o(resultGraph(log, result), (dir / "estimate.g2o").string());
+  writeTumTrajectory(result.estimate, (dir / "trajectory.tum").string());
+  writeG2o(inlier_optimum, (dir / "reference.g2o").string());
+
+  std::ostringstream csv;
+  csv << "from,to,outlier,mu,weight,distance,inlier,uncorroborated\n";
+  for (const LoopClosureResult& l : result.loop_closures)
+    csv << l.edge.from << ',' << l.edge.to << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << csvNumber(l.mu) << ','
+        << csvNumber(l.weight) << ',' << csvNumber(l.distance) << ',' << (l.inlier ? 1 : 0) << ','
+        << (l.uncorroborated ? 1 : 0) << '\n';
+  writeFileAtomically((dir / "loop_closures.csv").string(), csv.str());
+
+  std::ostringstream latency;
+  latency << "poses,update_ms,first_estimate_ms,free_poses,iterations,refinement_iterations,gnc_steps,graduated\n";
+  for (size_t i = 0; i < result.loop_update_ms.size(); ++i) {
+    const UpdateStats& s = result.loop_update_stats[i];
+    latency << result.loop_update_poses[i] << ',' << csvNumber(result.loop_update_ms[i]) << ','
+            << csvNumber(result.first_estimate_ms[i]) << ',' << result.loop_update_poses[i] - s.first_variable << ','
+            << s.iterations << ',' << s.refinement_iterations << ',' << s.gnc_steps << ',' << s.graduated << '\n';
+  }
+  writeFileAtomically((dir / "latency.csv").string(), latency.str());
+}
+
 double peakRssMb() {
   rusage usage{};
   getrusage(RUSAGE_SELF, &usage);
@@ -233,6 +281,7 @@ int main(int argc, char** argv) {
     const double f50 = percentile(result.first_estimate_ms, 50), f95 = percentile(result.first_estimate_ms, 95),
                  fmax = percentile(result.first_estimate_ms, 100);
 
+    const long redundancy = outlierFreeRedundancy(log);
     std::ostringstream json;
     json << "{\n"
          << "  \"dataset\": \"" << log.name << "\",\n"
@@ -269,6 +318,9 @@ int main(int argc, char** argv) {
          << "  \"rpe_m\": " << jsonNumber(rpe) << ",\n"
          << "  \"ate_vs_inlier_optimum_m\": " << jsonNumber(ate_inlier_optimum) << ",\n"
          << "  \"reference_chi2\": " << jsonNumber(reference.chi2) << ",\n"
+         << "  \"reference_redundancy\": " << redundancy << ",\n"
+         << "  \"reference_chi2_per_redundancy\": "
+         << jsonNumber(redundancy > 0 ? reference.chi2 / static_cast<double>(redundancy) : NAN) << ",\n"
          << "  \"reference_start\": \"" << toString(reference.best) << "\",\n"
          << "  \"reference_start_chi2\": {" << start_json.str() << "},\n"
          << "  \"update_ms_p50\": " << jsonNumber(p50) << ",\n"
@@ -280,30 +332,7 @@ int main(int argc, char** argv) {
          << "  \"peak_rss_mb\": " << jsonNumber(peakRssMb()) << "\n"
          << "}\n";
 
-    if (!args.output.empty()) {
-      namespace fs = std::filesystem;
-      fs::create_directories(args.output);
-      const fs::path dir(args.output);
-      std::ofstream(dir / "metrics.json") << json.str();
-      writeG2o(resultGraph(log, result), (dir / "estimate.g2o").string());
-      writeTumTrajectory(result.estimate, (dir / "trajectory.tum").string());
-      writeG2o(inlier_optimum, (dir / "reference.g2o").string());
-      std::ofstream csv(dir / "loop_closures.csv");
-      csv << "from,to,outlier,mu,weight,distance,inlier,uncorroborated\n" << std::setprecision(10);
-      for (const LoopClosureResult& l : result.loop_closures)
-        csv << l.edge.from << ',' << l.edge.to << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << l.mu << ','
-            << l.weight << ',' << l.distance << ',' << (l.inlier ? 1 : 0) << ','
-            << (l.uncorroborated ? 1 : 0) << '\n';
-      std::ofstream latency(dir / "latency.csv");
-      latency << "poses,update_ms,first_estimate_ms,free_poses,iterations,refinement_iterations,gnc_steps,graduated\n";
-      for (size_t i = 0; i < result.loop_update_ms.size(); ++i) {
-        const UpdateStats& s = result.loop_update_stats[i];
-        latency << result.loop_update_poses[i] << ',' << result.loop_update_ms[i] << ','
-                << result.first_estimate_ms[i] << ','
-                << result.loop_update_poses[i] - s.first_variable << ',' << s.iterations << ','
-                << s.refinement_iterations << ',' << s.gnc_steps << ',' << s.graduated << '\n';
-      }
-    }
+    if (!args.output.empty()) writeOutputs(args.output, json.str(), log, result, inlier_optimum);
 
     if (!args.quiet) {
       std::printf("%-28s %s (%dD), %d poses, %d loop closures (%d outliers)\n", "input:", log.name.c_str(),
@@ -320,6 +349,9 @@ int main(int argc, char** argv) {
       std::printf("%-28s %.4f m\n", "ATE vs outlier-free optimum:", ate_inlier_optimum);
       std::printf("%-28s chi2 %.7g from the %s start (%s)\n", "outlier-free optimum:", reference.chi2,
                   toString(reference.best).c_str(), start_text.str().c_str());
+      if (redundancy > 0)
+        std::printf("%-28s %.4g (redundancy %ld; about 1 when the stated covariances match the noise)\n",
+                    "  chi2 per redundancy:", reference.chi2 / static_cast<double>(redundancy), redundancy);
     } else {
       std::cout << json.str();
     }
