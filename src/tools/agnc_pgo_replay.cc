@@ -282,6 +282,7 @@ int main(int argc, char** argv) {
                  fmax = percentile(result.first_estimate_ms, 100);
 
     const long redundancy = outlierFreeRedundancy(log);
+    const double chi2_per_redundancy = redundancy > 0 ? reference.chi2 / static_cast<double>(redundancy) : NAN;
     std::ostringstream json;
     json << "{\n"
          << "  \"dataset\": \"" << log.name << "\",\n"
@@ -319,8 +320,7 @@ int main(int argc, char** argv) {
          << "  \"ate_vs_inlier_optimum_m\": " << jsonNumber(ate_inlier_optimum) << ",\n"
          << "  \"reference_chi2\": " << jsonNumber(reference.chi2) << ",\n"
          << "  \"reference_redundancy\": " << redundancy << ",\n"
-         << "  \"reference_chi2_per_redundancy\": "
-         << jsonNumber(redundancy > 0 ? reference.chi2 / static_cast<double>(redundancy) : NAN) << ",\n"
+         << "  \"reference_chi2_per_redundancy\": " << jsonNumber(chi2_per_redundancy) << ",\n"
          << "  \"reference_start\": \"" << toString(reference.best) << "\",\n"
          << "  \"reference_start_chi2\": {" << start_json.str() << "},\n"
          << "  \"update_ms_p50\": " << jsonNumber(p50) << ",\n"
@@ -351,7 +351,7 @@ int main(int argc, char** argv) {
                   toString(reference.best).c_str(), start_text.str().c_str());
       if (redundancy > 0)
         std::printf("%-28s %.4g (redundancy %ld; about 1 when the stated covariances match the noise)\n",
-                    "  chi2 per redundancy:", reference.chi2 / static_cast<double>(redundancy), redundancy);
+                    "  chi2 per redundancy:", chi2_per_redundancy, redundancy);
     } else {
       std::cout << json.str();
     }
