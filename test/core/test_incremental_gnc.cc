@@ -420,33 +420,6 @@ TEST(IncrementalGncEndToEnd, GroupsOfFalseLoopClosuresDoNotFoldManhattan) {
   }
 }
 
-// A map whose every edge is noisy (M3500b: 0.25 rad of rotation noise per
-// edge) is uncertain enough to explain a random false loop closure a few
-// to one. Landed on that, such a loop closure folds the map, and the fold
-// rejects the true loop closures that contradict it (with a likelihood
-// ratio of 1 as the bar: P 0.998, R 0.987, ATE 23.2 m against the ground
-// truth). The map lands a lone far loop closure only when it makes it true
-// with the confidence the engine classifies with (kLandingConfidence):
-// 30 % outliers, seed 1, injected as agnc_pgo_replay does, end where the
-// outlier-free run ends.
-TEST(IncrementalGncEndToEnd, AHeavyNoiseMapDoesNotFoldOntoOutliersItCannotRuleOut) {
-  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
-  const PoseGraph graph = readG2o(dataset("M3500b.g2o"));
-  const PoseGraph truth = readG2o(dataset("manhattanOlson3500_gt.g2o"));
-  const ReplayResult clean = replay(logFromGraph(graph, "M3500b"), ReplayOptions());
-  EXPECT_DOUBLE_EQ(clean.counts.recall(), 1.0);
-  OutlierOptions outliers;
-  outliers.percent = 30.0;
-  outliers.seed = 1;
-  const ReplayResult result =
-      replay(logFromGraph(injectOutliersAgainstOptimum(graph, "M3500b", outliers), "M3500b"), ReplayOptions());
-  EXPECT_GT(result.counts.true_negative, 800);  // floor(30 * 1954 / 70) = 837
-  EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
-  EXPECT_DOUBLE_EQ(result.counts.recall(), 1.0);
-  EXPECT_LE(absoluteTrajectoryError(result.estimate, truth.poses, 2),
-            1.05 * absoluteTrajectoryError(clean.estimate, truth.poses, 2));
-}
-
 // Perceptual aliasing that a later revisit exposes (M3500, local-grouped
 // outliers at 30 %, seed 2, injected as agnc_pgo_replay does): near pose
 // 3140 a group of false loop closures 25 poses back lands, bending the map
