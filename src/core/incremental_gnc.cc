@@ -430,8 +430,7 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   // run of loop closures that agree with each other; a random outlier
   // rarely has one), or, for a loop closure that comes alone, the map --
   // whether its uncertainty between the endpoints explains the residual
-  // so much better than chance that the loop closure is true with the
-  // confidence the engine classifies with (loop_prediction.h).
+  // better than chance does (loop_prediction.h).
   const auto landed = [plan](int index) {
     return std::find(plan->cycles.begin(), plan->cycles.end(), index) != plan->cycles.end();
   };
@@ -492,8 +491,8 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
     first = std::min(first, olderEnd(loops_[index].edge));
     factors.push_back(loops_[index].factor);
   }
-  // Landed if the map makes it true with kLandingConfidence from even prior
-  // odds (loop_prediction.h). A loop closure that even one path of the map
+  // Even prior odds: a far loop closure is as likely false as true until
+  // the map says otherwise. A loop closure that even one path of the map
   // between its endpoints cannot explain -- the path alone is less certain
   // than the map -- is decided without factorising the map (a random
   // outlier far off usually is); the others are predicted by the map. The
@@ -501,7 +500,6 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   // judged again tries first the path that ruled it out last time: a search
   // for the shortest path between far endpoints expands most of the map.
   const double variance_factor = solver_.varianceFactor(first, factors);
-  const double landing_log_odds = landingLogOdds();
   const Eigen::VectorXd extent = mapExtent(dimension_, solver_.blocks());
   std::vector<double> log_volume(loops.size());
   std::vector<int> undecided, undecided_factors;
@@ -516,8 +514,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
     if (!paths) paths = std::make_unique<SparsePoseGraphSolver::PathSearch>(solver_.pathSearch(factors));
     std::vector<int> path = solver_.findShortestPath(paths.get(), olderEnd(e), newerEnd(e));
     const SparsePoseGraphSolver::Prediction along_path = solver_.predictAlongPath(factors[i], path, variance_factor);
-    if (logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume[i]) <=
-        landing_log_odds) {
+    if (logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume[i]) <= 0.0) {
       paths_ruled_out_[index] = std::move(path);
       continue;
     }
@@ -532,7 +529,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
       solver_.predict(undecided_factors, first, factors);
   for (size_t k = 0; k < undecided.size(); ++k) {
     const SparsePoseGraphSolver::Prediction& p = predictions[k];
-    explained[undecided[k]] = logPredictionOdds(p.residual, p.covariance, log_volume[undecided[k]]) > landing_log_odds;
+    explained[undecided[k]] = logPredictionOdds(p.residual, p.covariance, log_volume[undecided[k]]) > 0.0;
   }
   return explained;
 }
@@ -547,7 +544,7 @@ bool IncrementalGnc::stillRuledOut(int index, const std::vector<int>& judged_sor
   // Infinite where a factor of the path left the map (dormant, disabled).
   const SparsePoseGraphSolver::Prediction along_path =
       solver_.predictAlongPath(loops_[index].factor, path, variance_factor);
-  return logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume) <= landingLogOdds();
+  return logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume) <= 0.0;
 }
 
 void IncrementalGnc::land(int index, UpdatePlan* plan) {

@@ -20,8 +20,6 @@ double logChanceVolume(const Eigen::VectorXd& extent, const Eigen::MatrixXd& inf
   return log_volume;
 }
 
-double landingLogOdds() { return std::log(kLandingConfidence / (1.0 - kLandingConfidence)); }
-
 double logPredictionOdds(const Eigen::VectorXd& residual, const Eigen::MatrixXd& covariance,
                          double log_chance_volume) {
   if (!covariance.allFinite()) return -std::numeric_limits<double>::infinity();

@@ -561,14 +561,13 @@ TEST(IncrementalGncEndToEnd, AnUncertainMapWaitsForASecondLoopClosure) {
 }
 
 // A map too uncertain for a loop closure is tightened by a later one: the
-// block again, its odometry stating 5.5 times its noise, so the 800-pose
-// loop closure back to the start (A) is held back (the map makes it true
-// with less than kLandingConfidence). The drive goes on east
+// block again, its odometry stating 15 times its noise, so the 800-pose
+// loop closure back to the start (A) is held back. The drive goes on east
 // along the bottom and north through the middle of the block, and closes a
 // 600-pose cycle there (B), which the map explains. Once B has landed, the
 // map between A's endpoints is tighter: A is judged again and lands too.
 TEST(IncrementalGncEndToEnd, ALoopClosureTheMapCouldNotTellIsJudgedAgainWhenItTightens) {
-  BlockDrive drive(5.5);
+  BlockDrive drive(15.0);
   const IncrementalGnc& engine = drive.engine;
   drive.close(BlockDrive::kPoses, 0);
   EXPECT_TRUE(engine.loopClosures()[0].uncorroborated);
@@ -602,7 +601,7 @@ void feed(IncrementalGnc* engine, const std::vector<Edge>& edges, bool update) {
 // later one tightens the map (the drive of the test above), in the rebuilt
 // engine too, and both end at the same estimate.
 TEST(IncrementalGncEndToEnd, ARestoredEngineGoesOnAsTheSavedOne) {
-  BlockDrive drive(5.5);
+  BlockDrive drive(15.0);
   drive.close(BlockDrive::kPoses, 0);
   ASSERT_TRUE(drive.engine.loopClosures()[0].uncorroborated);
   IncrementalGnc restored(2, GncOptions());
@@ -626,10 +625,9 @@ TEST(IncrementalGncEndToEnd, ARestoredEngineGoesOnAsTheSavedOne) {
 }
 
 // A false loop closure the map cannot rule out: back at the start, the
-// front-end claims that the end of the block is the place 26 m along its
-// first side. The odometry's uncertainty over 800 steps covers 26 m well
-// enough (a claim of 27 m is ruled out by the map, one of 25 m is kept:
-// bending costs less than rejecting), so the claim is landed as a trial; bending the block onto it costs more than
+// front-end claims that the end of the block is the place 30 m along its
+// first side. The odometry's uncertainty over 800 steps covers 30 m, so the
+// claim is landed as a trial; bending the block onto it costs more than
 // rejecting it, so the trial is undone. That verdict stands when a later
 // true loop closure tightens the map: only a corroborating loop closure
 // would land the claim again, so closing the later cycle costs what it costs
@@ -640,7 +638,7 @@ TEST(IncrementalGncEndToEnd, AnUndoneTrialIsNotJudgedAgainWhenTheMapTightens) {
     BlockDrive drive(1.0);
     const IncrementalGnc& engine = drive.engine;
     if (claim) {
-      const LoopClosure& alias = drive.claimSamePlace(BlockDrive::kPoses, 26);
+      const LoopClosure& alias = drive.claimSamePlace(BlockDrive::kPoses, 30);
       EXPECT_TRUE(alias.undone);
       EXPECT_FALSE(alias.inlier);
     }

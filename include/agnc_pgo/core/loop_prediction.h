@@ -17,20 +17,13 @@
 //
 //   p(r | false) = 1 / V
 //
-// From even prior odds (a far loop closure is as likely false as true until
-// the map says otherwise), the loop closure is true with probability
-// LR / (1 + LR), LR = N(r; 0, S) * V. It is landed on the map's word when
-// that probability reaches the confidence the engine classifies with
-// (kLandingConfidence, the 0.95 of the inlier gate r^2 < q(0.95)): LR >= 19.
-// The ratio is what a gate on r^T S^-1 r alone misses: where the map is
-// uncertain (an open trajectory after a long drive, or a map whose every
-// edge is noisy), S is so wide that any residual looks plausible, but then
-// its density is hardly higher than chance, and the test holds the loop
+// The loop closure is worth landing when the likelihood ratio
+// N(r; 0, S) * V exceeds 1 (even prior odds). The ratio is what a gate on
+// r^T S^-1 r alone misses: where the map is uncertain (an open trajectory
+// after a long drive), S is so wide that any residual looks plausible, but
+// then its density is no higher than chance, and the test holds the loop
 // closure back; where the map is certain a true loop closure is far more
-// likely than chance even many sigma off by its own covariance. A ratio of
-// a few to one is not enough: landing a false loop closure folds the map
-// around it, and the fold then rejects the true loop closures that
-// contradict it (M3500 with 0.25-0.34 rad of rotation noise per edge).
+// likely than chance even many sigma off by its own covariance.
 #pragma once
 
 #include <vector>
@@ -48,11 +41,6 @@ namespace core {
 // translation first). Each axis spans at least one standard deviation of
 // the factor.
 double logChanceVolume(const Eigen::VectorXd& extent, const Eigen::MatrixXd& information);
-
-// The probability of being true at which the map lands a far loop closure,
-// and the log-odds it takes from even prior odds: log(0.95 / 0.05).
-constexpr double kLandingConfidence = 0.95;
-double landingLogOdds();
 
 // log(N(r; 0, S) * V). -inf if S is not finite and positive definite.
 double logPredictionOdds(const Eigen::VectorXd& residual, const Eigen::MatrixXd& covariance,
