@@ -451,7 +451,7 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   std::vector<int> alone;
   for (int index : far) {
     if (landed(index)) continue;  // as the partner of an earlier one of this update
-    const std::vector<int> partners = corroboratingLoops(index, far, varianceFactor);
+    const std::vector<int> partners = consistentRun(index, far, varianceFactor);
     if (partners.empty()) {
       alone.push_back(index);
       continue;
@@ -591,6 +591,25 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
     }
   }
   return partners;
+}
+
+std::vector<int> IncrementalGnc::consistentRun(int index, const std::vector<int>& far,
+                                               const std::function<double()>& variance_factor) const {
+  // A revisit is judged whole: the partners of partners belong to the same
+  // run of the place seen again, and each one that was refused alone (or in
+  // a smaller part of the run) is evidence for the others.
+  std::vector<int> run;
+  std::vector<int> frontier{index};
+  while (!frontier.empty()) {
+    const int member = frontier.back();
+    frontier.pop_back();
+    for (int partner : corroboratingLoops(member, far, variance_factor)) {
+      if (partner == index || std::find(run.begin(), run.end(), partner) != run.end()) continue;
+      run.push_back(partner);
+      frontier.push_back(partner);
+    }
+  }
+  return run;
 }
 
 void IncrementalGnc::planWindow(UpdatePlan* plan) const {

@@ -120,8 +120,10 @@ struct GncOptions {
     // loop closure whose endpoints both lie within this many poses of its own
     // passes the pairwise consistency test with it (loop_consistency.h, at
     // q(0.95)): a place seen again after a long drift yields a run of such
-    // loop closures. Otherwise it is landed if the map explains it better
-    // than chance (loop_prediction.h), and rejected without a solve if not.
+    // loop closures, and the run lands as one trial (the neighbours of its
+    // neighbours, transitively). Otherwise it is landed if the map explains
+    // it better than chance (loop_prediction.h), and rejected without a
+    // solve if not.
     // Either way the landing is a trial that stands only if it lowers the
     // robust objective (IncrementalGnc::update): a group of false loop
     // closures corroborates itself, but cannot bend a map whose true loop

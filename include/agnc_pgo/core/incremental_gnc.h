@@ -208,6 +208,10 @@ class IncrementalGnc {
   // pairwise test scales the stated covariances by.
   std::vector<int> corroboratingLoops(int index, const std::vector<int>& far,
                                       const std::function<double()>& variance_factor) const;
+  // The rejected or arriving loop closures linked to this one by a chain of
+  // corroborating neighbours (corroboratingLoops, transitively).
+  std::vector<int> consistentRun(int index, const std::vector<int>& far,
+                                 const std::function<double()>& variance_factor) const;
   // For each far loop closure, whether the map's uncertainty between its
   // endpoints explains it better than chance (loop_prediction.h).
   std::vector<bool> explainedByTheMap(const std::vector<int>& loops);
