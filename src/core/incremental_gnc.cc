@@ -244,12 +244,12 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
     settle(plan.first, maxSettleIterations(), plan.last_step, stats);
     rolled_back = trial && solver_.objective(plan.first) > before.objective;
     if (rolled_back) {
-      const std::vector<int> strained = strainedLandings(before, plan);
+      const std::vector<int> competing = competingLandings(before, plan);
       next = rollBack(before, plan);
       // A group that agrees with itself and that the map refuses is evidence
       // against the map too: an earlier landing it contradicts may be what
       // is wrong. Whatever else was pending is judged in the next pass.
-      if (!strained.empty() && releaseAndLand(plan.cycles, strained, stats, first_estimate))
+      if (!competing.empty() && releaseAndLand(plan.cycles, competing, stats, first_estimate))
         needs_restart_.clear();
     } else {
       const bool refines = needsRefinement(plan, window_before);
@@ -319,25 +319,29 @@ void IncrementalGnc::rejectAsUndone(int index) {
   refresh(&loop);
 }
 
-std::vector<int> IncrementalGnc::strainedLandings(const Snapshot& before, const UpdatePlan& plan) const {
+std::vector<int> IncrementalGnc::competingLandings(const Snapshot& before, const UpdatePlan& plan) const {
   // Only a group is evidence enough against the map: a lone far loop
   // closure that the map explained and the objective refused is far more
-  // often a random outlier. Landings older than the trial's window were
-  // held fixed: it could not strain them.
-  std::vector<int> strained;
+  // often a random outlier. Which earlier landings the group contradicts,
+  // the refused trial cannot tell: its own graduation may have kept a false
+  // landing and refused the group instead of pushing the landing out. So
+  // every one in the trial's window competes, and the objective judges.
+  // Landings older than the window were held fixed: the trial could not
+  // move them.
+  std::vector<int> competing;
   const bool corroborated = plan.cycles.size() > plan.explained.size();
-  if (!corroborated) return strained;
+  if (!corroborated) return competing;
   for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
     const LoopClosure& loop = loops_[index];
-    if (!loop.landed || loop.override_mode != LoopOverride::kAuto || !before.loops[index].inlier ||
-        newerEnd(loop.edge) < plan.first)
-      continue;
-    if (!schedule_.isInlier(schedule_.distanceOf(solver_.whitenedNorm(loop.factor)))) strained.push_back(index);
+    if (loop.landed && loop.override_mode == LoopOverride::kAuto && before.loops[index].inlier &&
+        newerEnd(loop.edge) >= plan.first &&
+        std::find(plan.cycles.begin(), plan.cycles.end(), index) == plan.cycles.end())
+      competing.push_back(index);
   }
-  return strained;
+  return competing;
 }
 
-bool IncrementalGnc::releaseAndLand(const std::vector<int>& group, const std::vector<int>& strained,
+bool IncrementalGnc::releaseAndLand(const std::vector<int>& group, const std::vector<int>& released,
                                     UpdateStats* stats, std::function<void()>* first_estimate) {
   // The window frees the cycles of both, so the map can leave the released
   // landings; they stay in the objective, at mu = 1 where the map ends, so
@@ -345,18 +349,18 @@ bool IncrementalGnc::releaseAndLand(const std::vector<int>& group, const std::ve
   UpdatePlan plan;
   plan.first = numPoses();
   for (int index : group) plan.first = std::min(plan.first, olderEnd(loops_[index].edge));
-  for (int index : strained) plan.first = std::min(plan.first, olderEnd(loops_[index].edge));
+  for (int index : released) plan.first = std::min(plan.first, olderEnd(loops_[index].edge));
   plan.oldest = plan.first;
   plan.moves = true;
   const Snapshot before = snapshot(plan.first);
-  for (int index : strained) solver_.setMode(loops_[index].factor, FactorMode::kDisabled);
+  for (int index : released) solver_.setMode(loops_[index].factor, FactorMode::kDisabled);
   for (int index : group) land(index, &plan);
   solver_.resetTrustRegion();
   selectGraduating(&plan);
   const Poses window_before = windowPoses(plan);
   runGncSteps(&plan, stats);
   settle(plan.first, maxSettleIterations(), plan.last_step, stats);
-  for (int index : strained) {
+  for (int index : released) {
     solver_.setMode(loops_[index].factor, robustMode());
     rejectAsUndone(index);
   }

@@ -188,14 +188,15 @@ class IncrementalGnc {
   // with a corroborating loop closure.
   void rejectAsUndone(int index);
   // After a trial that landed a corroborated group and was refused (the
-  // estimate is still the trial's): the loop closures landed earlier, inliers
-  // before the trial, that it pushed beyond the inlier gate.
-  std::vector<int> strainedLandings(const Snapshot& before, const UpdatePlan& plan) const;
-  // The other hypothesis for a refused group: the strained landings were
+  // estimate is still the trial's): the loop closures landed earlier,
+  // inliers before the trial, in the trial's window (the group's own
+  // excepted).
+  std::vector<int> competingLandings(const Snapshot& before, const UpdatePlan& plan) const;
+  // The other hypothesis for a refused group: the competing landings were
   // wrong. Lands the group without them; keeps the result (and rejects them)
   // if it ends lower on the objective than the estimate before, else returns
   // to it. True if it stands.
-  bool releaseAndLand(const std::vector<int>& group, const std::vector<int>& strained, UpdateStats* stats,
+  bool releaseAndLand(const std::vector<int>& group, const std::vector<int>& released, UpdateStats* stats,
                       std::function<void()>* first_estimate);
   // Loop closures rejected on arrival as unexplained (not undone trials) whose cycle overlaps
   // one of `landed`'s and that the map, tighter now, explains.
