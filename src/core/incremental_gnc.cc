@@ -360,9 +360,12 @@ bool IncrementalGnc::releaseAndLand(const std::vector<int>& group, const std::ve
   const Poses window_before = windowPoses(plan);
   runGncSteps(&plan, stats);
   settle(plan.first, maxSettleIterations(), plan.last_step, stats);
+  // Released landings the map ends agreeing with stay landed; those it
+  // contradicts were the wrong ones.
   for (int index : released) {
     solver_.setMode(loops_[index].factor, robustMode());
-    rejectAsUndone(index);
+    refresh(&loops_[index]);
+    if (!loops_[index].inlier) rejectAsUndone(index);
   }
   if (solver_.objective(plan.first) > before.objective) {
     rollBack(before, plan);

@@ -193,8 +193,9 @@ class IncrementalGnc {
   // excepted).
   std::vector<int> competingLandings(const Snapshot& before, const UpdatePlan& plan) const;
   // The other hypothesis for a refused group: the competing landings were
-  // wrong. Lands the group without them; keeps the result (and rejects them)
-  // if it ends lower on the objective than the estimate before, else returns
+  // wrong. Lands the group without them; keeps the result if it ends lower
+  // on the objective than the estimate before (the released ones that the
+  // map then contradicts are rejected, the others stay landed), else returns
   // to it. True if it stands.
   bool releaseAndLand(const std::vector<int>& group, const std::vector<int>& released, UpdateStats* stats,
                       std::function<void()>* first_estimate);
