@@ -187,10 +187,9 @@ class IncrementalGnc {
   // Rejected at mu = 1 after a trial the objective refused; judged again only
   // with a corroborating loop closure.
   void rejectAsUndone(int index);
-  // After a trial that landed a corroborated group and was refused (the
-  // estimate is still the trial's): the loop closures landed earlier,
-  // inliers before the trial, in the trial's window (the group's own
-  // excepted).
+  // After a trial that landed a corroborated group and was refused: the
+  // loop closures landed earlier, inliers before the trial, in the trial's
+  // window (the group's own excepted).
   std::vector<int> competingLandings(const Snapshot& before, const UpdatePlan& plan) const;
   // The other hypothesis for a refused group: the competing landings were
   // wrong. Lands the group without them; keeps the result if it ends lower
