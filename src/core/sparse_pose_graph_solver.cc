@@ -53,7 +53,42 @@ constexpr double kForcingSafeguard = 0.1;
 // of the process (a nodelet manager's) keep their parallelism.
 void keepCholmodSerial() { omp_set_max_active_levels(0); }
 
+// Sums of a sequence that grows at its end (a Fenwick tree): add to one
+// element and the sum of the first `count` elements, each in log(size).
+class GrowingPrefixSums {
+ public:
+  // Appends an element of value 0. The new node holds the sum of the
+  // elements its range covers before it, all of them already in place.
+  void append() {
+    const size_t i = tree_.size() + 1;
+    tree_.push_back(prefix(i - 1) - prefix(i - lowBit(i)));
+  }
+  void add(size_t index, double delta) {
+    for (size_t i = index + 1; i <= tree_.size(); i += lowBit(i)) tree_[i - 1] += delta;
+  }
+  double prefix(size_t count) const {
+    double sum = 0.0;
+    for (size_t i = count; i > 0; i -= lowBit(i)) sum += tree_[i - 1];
+    return sum;
+  }
+  size_t size() const { return tree_.size(); }
+
+ private:
+  static size_t lowBit(size_t i) { return i & (~i + 1); }
+  std::vector<double> tree_;
+};
+
 }  // namespace
+
+struct SparsePoseGraphSolver::VarianceTerms {
+  // Per factor, the terms last summed: w r^2 and w dim (robust), r^2 and 0
+  // (plain), nothing for a disabled or dormant one.
+  std::vector<double> chi2, redundancy;
+  std::vector<char> stale;
+  std::vector<int> stale_factors;
+  // The same summed by the factor's newer endpoint.
+  GrowingPrefixSums chi2_by_pose, redundancy_by_pose;
+};
 
 struct SparsePoseGraphSolver::Decompositions {
   Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> simplicial;
@@ -71,6 +106,7 @@ SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
       shape_c_(shape_c),
       manifold_(makePoseManifold(dimension)),
       anchor_(toBlock(dimension, Pose::identity())),
+      variance_terms_(std::make_unique<VarianceTerms>()),
       decompositions_(std::make_unique<Decompositions>()) {
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
   // SE(3) (supernodal, see the header): CHOLMOD's AMD on the scalar
@@ -85,6 +121,9 @@ SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
 int SparsePoseGraphSolver::addPose(const Pose& initial) {
   blocks_.push_back(toBlock(dimension_, initial));
   incident_.emplace_back();
+  priors_.emplace_back();
+  variance_terms_->chi2_by_pose.append();
+  variance_terms_->redundancy_by_pose.append();
   return numPoses() - 1;
 }
 
@@ -96,11 +135,31 @@ int SparsePoseGraphSolver::addFactor(int a, int b, const Pose& z,
   Factor f{a, b, std::unique_ptr<ceres::CostFunction>(makePoseErrorCost(dimension_, z, information)),
            SigLoss(0.0, shape_c_), mode};
   factors_.push_back(std::move(f));
+  const int k = numFactors() - 1;
   if (a != kAnchor) {
-    incident_[a].push_back(numFactors() - 1);
-    incident_[b].push_back(numFactors() - 1);
+    incident_[a].push_back(k);
+    incident_[b].push_back(k);
+  } else {
+    priors_[b].push_back(k);
   }
-  return numFactors() - 1;
+  VarianceTerms& terms = *variance_terms_;
+  terms.chi2.push_back(0.0);
+  terms.redundancy.push_back(0.0);
+  terms.stale.push_back(0);
+  markStale(k);
+  return k;
+}
+
+void SparsePoseGraphSolver::markStale(int factor) const {
+  VarianceTerms& terms = *variance_terms_;
+  if (terms.stale[factor]) return;
+  terms.stale[factor] = 1;
+  terms.stale_factors.push_back(factor);
+}
+
+void SparsePoseGraphSolver::poseMoved(int id) const {
+  for (int k : incident_[id]) markStale(k);
+  for (int k : priors_[id]) markStale(k);
 }
 
 void SparsePoseGraphSolver::evaluate(const Factor& f, double* residual, double* jac_a,
@@ -467,7 +526,9 @@ std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(co
   for (int k : without) factors_[k].excluded = true;
   if (d == 3) linearize<3>();
   else linearize<6>();
-  const double variance_factor = windowVarianceFactor();
+  std::vector<int> left_out = factors;
+  left_out.insert(left_out.end(), without.begin(), without.end());
+  const double variance_factor = varianceFactor(first, left_out);
   for (int k : factors) factors_[k].excluded = false;
   for (int k : without) factors_[k].excluded = false;
   const bool factorized = factorize();
@@ -637,45 +698,57 @@ Eigen::MatrixXd SparsePoseGraphSolver::relativeCovariance(const Eigen::MatrixXd&
   return x.transpose() * x;
 }
 
-double SparsePoseGraphSolver::windowVarianceFactor() const {
-  std::vector<int> window;
-  window.reserve(slots_.size());
-  for (const FactorSlot& slot : slots_) window.push_back(slot.factor);
-  return varianceFactorOf(window);
-}
-
 double SparsePoseGraphSolver::varianceFactor(int first_variable, const std::vector<int>& without) const {
-  std::vector<char> left_out(factors_.size(), 0);
-  for (int k : without) left_out[k] = 1;
-  std::vector<int> factors;
-  for (int k = 0; k < static_cast<int>(factors_.size()); ++k)
-    if (!left_out[k] && !factors_[k].dormant && std::max(factors_[k].a, factors_[k].b) >= first_variable)
-      factors.push_back(k);
-  return varianceFactorOf(factors);
-}
-
-double SparsePoseGraphSolver::varianceFactorOf(const std::vector<int>& factors) const {
   // Each robust factor adds its dimension to the redundancy, times its
   // kernel weight (a rejected one adds nothing); the stated covariances
   // count as a prior worth one factor, so a window without loop closures
   // keeps a factor of 1.
-  const double dof = tangent_;
-  double chi2 = dof, redundancy = dof, residual[6];
-  for (int k : factors) {
-    const Factor& f = factors_[k];
-    if (f.mode == FactorMode::kDisabled || f.excluded) continue;
-    evaluate(f, residual, nullptr, nullptr);
-    const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
-    double w = 1.0;
-    if (f.mode == FactorMode::kRobust) {
-      double rho[3];
-      f.loss.Evaluate(s, rho);
-      w = rho[1];
-      redundancy += w * dof;
-    }
-    chi2 += w * s;
+  refreshVarianceTerms();
+  const VarianceTerms& terms = *variance_terms_;
+  const size_t first = static_cast<size_t>(std::max(0, std::min(first_variable, numPoses())));
+  const size_t poses = terms.chi2_by_pose.size();
+  double chi2 = terms.chi2_by_pose.prefix(poses) - terms.chi2_by_pose.prefix(first);
+  double redundancy = terms.redundancy_by_pose.prefix(poses) - terms.redundancy_by_pose.prefix(first);
+  std::vector<int> left_out = without;
+  std::sort(left_out.begin(), left_out.end());
+  left_out.erase(std::unique(left_out.begin(), left_out.end()), left_out.end());
+  for (int k : left_out) {
+    if (std::max(factors_[k].a, factors_[k].b) < first_variable) continue;
+    chi2 -= terms.chi2[k];
+    redundancy -= terms.redundancy[k];
   }
-  return chi2 / redundancy;
+  // The differences of sums may fall a rounding error below zero.
+  const double dof = tangent_;
+  return (dof + std::max(0.0, chi2)) / (dof + std::max(0.0, redundancy));
+}
+
+void SparsePoseGraphSolver::refreshVarianceTerms() const {
+  VarianceTerms& terms = *variance_terms_;
+  const double dof = tangent_;
+  double residual[6];
+  for (int k : terms.stale_factors) {
+    terms.stale[k] = 0;
+    const Factor& f = factors_[k];
+    double chi2 = 0.0, redundancy = 0.0;
+    if (f.mode != FactorMode::kDisabled && !f.dormant) {
+      evaluate(f, residual, nullptr, nullptr);
+      const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
+      double w = 1.0;
+      if (f.mode == FactorMode::kRobust) {
+        double rho[3];
+        f.loss.Evaluate(s, rho);
+        w = rho[1];
+        redundancy = w * dof;
+      }
+      chi2 = w * s;
+    }
+    const size_t newer = static_cast<size_t>(std::max(f.a, f.b));
+    terms.chi2_by_pose.add(newer, chi2 - terms.chi2[k]);
+    terms.redundancy_by_pose.add(newer, redundancy - terms.redundancy[k]);
+    terms.chi2[k] = chi2;
+    terms.redundancy[k] = redundancy;
+  }
+  terms.stale_factors.clear();
 }
 
 IterationResult SparsePoseGraphSolver::iterate(int first) {
@@ -764,6 +837,7 @@ bool SparsePoseGraphSolver::takeStep(int first, const Eigen::VectorXd& delta, do
   }
   const double new_cost = windowCost();
   if (new_cost <= cost + 1e-10 * std::abs(cost) + 1e-12) {
+    for (const FactorSlot& slot : slots_) markStale(slot.factor);
     result->cost_after = new_cost;
     result->mean_step = step_sum / nv;
     result->accepted = true;

@@ -74,6 +74,7 @@ class SparsePoseGraphSolver {
   void setPose(int id, const Pose& pose) {
     blocks_[id] = toBlock(dimension_, pose);
     model_known_ = false;
+    poseMoved(id);
   }
   // The estimate as the solver holds it (pose_manifolds.h), one block per pose.
   const std::vector<PoseBlock>& blocks() const { return blocks_; }
@@ -83,12 +84,16 @@ class SparsePoseGraphSolver {
   // non-positive-definite information or unknown pose.
   int addFactor(int a, int b, const Pose& z, const Eigen::MatrixXd& information, FactorMode mode);
 
-  void setMu(int factor, double mu) { factors_[factor].loss.setMu(mu); }
+  void setMu(int factor, double mu) {
+    factors_[factor].loss.setMu(mu);
+    markStale(factor);
+  }
   double mu(int factor) const { return factors_[factor].loss.mu(); }
   void setMode(int factor, FactorMode mode) {
     if ((factors_[factor].mode == FactorMode::kDisabled) != (mode == FactorMode::kDisabled))
       ++structure_version_;
     factors_[factor].mode = mode;
+    markStale(factor);
   }
   // A dormant factor keeps its mode and mu but leaves the linear system (and
   // the window cost) until woken: a rejected loop closure whose kernel weight
@@ -97,6 +102,7 @@ class SparsePoseGraphSolver {
   void setDormant(int factor, bool dormant) {
     if (factors_[factor].dormant != dormant) ++structure_version_;
     factors_[factor].dormant = dormant;
+    markStale(factor);
   }
   // The whitened residual norm r = |S e| at the current estimate.
   double whitenedNorm(int factor) const;
@@ -141,7 +147,7 @@ class SparsePoseGraphSolver {
   // by its information; r^T S^-1 r is, to first order, how much the window's
   // optimal cost rises when the factor is added (the data-association test
   // of iSAM and PCM). s0^2 is the window's a-posteriori variance of unit
-  // weight (windowVarianceFactor): graphs state their noise up to 40 times
+  // weight (varianceFactor): graphs state their noise up to 40 times
   // the real variance (M3500), which would make the map look uncertain enough
   // to absorb anything. One factorisation for all the given factors.
   struct Prediction {
@@ -185,7 +191,11 @@ class SparsePoseGraphSolver {
   // dormant ones, at the current estimate, as predict() uses for its
   // window (the same factors): sum of w r^2 over
   // sum of w dim for robust factors of kernel weight w, the stated
-  // covariances counting as one more factor.
+  // covariances counting as one more factor. Each factor's terms are kept
+  // and summed by its newer endpoint, so that a query costs the factors
+  // that changed since the last one (evaluated again then) and log(poses),
+  // not an evaluation of the window: an arriving loop closure far back
+  // would otherwise pay for most of the map.
   double varianceFactor(int first_variable, const std::vector<int>& without) const;
 
  private:
@@ -245,8 +255,13 @@ class SparsePoseGraphSolver {
   // model's gradient |g + H s| after the step s just taken (h_step = H s).
   void rememberModel(double gradient_norm, const Eigen::VectorXd& h_step);
   // The IRLS-weighted chi2 of the window's factors over their redundancy.
-  double windowVarianceFactor() const;
-  double varianceFactorOf(const std::vector<int>& factors) const;
+  // varianceFactor()'s terms (defined in the .cc file): a factor's are
+  // evaluated again once it is marked stale -- its mu, mode or dormancy
+  // changed, or an endpoint moved.
+  struct VarianceTerms;
+  void markStale(int factor) const;
+  void poseMoved(int id) const;
+  void refreshVarianceTerms() const;
   // J H^-1 J^T for a factor's whitened Jacobian J (J^T: window rows x d,
   // zero above first_row) with the factorised Hessian of the window.
   Eigen::MatrixXd relativeCovariance(const Eigen::MatrixXd& jt, long first_row);
@@ -265,6 +280,8 @@ class SparsePoseGraphSolver {
   std::vector<PoseBlock> blocks_;
   std::vector<Factor> factors_;
   std::vector<std::vector<int>> incident_;  // per pose, the factors between it and another pose
+  std::vector<std::vector<int>> priors_;    // per pose, the factors between it and kAnchor
+  std::unique_ptr<VarianceTerms> variance_terms_;
 
   // Cached structure (rebuilt when the window or the graph changes).
   int structure_first_ = -1, structure_poses_ = -1, structure_factors_ = -1;
