@@ -543,6 +543,85 @@ TEST(SparsePoseGraphSolver, StepsAreAsExactAsTheLastModelPredicted) {
   }
 }
 
+// varianceFactor() keeps each factor's terms between queries; they must
+// follow every change of the estimate, of mu, mode and dormancy, exactly as
+// a sum over the factors at the current estimate would.
+TEST(SparsePoseGraphSolver, VarianceFactorFollowsEveryChange) {
+  struct Term {
+    int a, b;
+    FactorMode mode;
+    bool dormant;
+  };
+  SparsePoseGraphSolver solver(2);
+  std::vector<Term> terms;
+  std::mt19937 random(7);
+  std::normal_distribution<double> noise(0.0, 0.05);
+  auto add = [&](int a, int b, const Pose& z, double information, FactorMode mode) {
+    solver.addFactor(a, b, z, information * Eigen::Matrix3d::Identity(), mode);
+    terms.push_back({a, b, mode, false});
+  };
+  solver.addPose(Pose::identity());
+  add(SparsePoseGraphSolver::kAnchor, 0, Pose::identity(), 1e6, FactorMode::kPlain);
+  for (int i = 1; i < 30; ++i) {
+    const Pose z = Pose::fromSE2(1.0 + noise(random), noise(random), 0.2 + noise(random));
+    solver.addPose(solver.pose(i - 1) * z);
+    add(i - 1, i, z, 100.0, FactorMode::kPlain);
+  }
+  // Loop closures between poses of the true circle-ish path, one of them false.
+  for (const auto& [a, b] : std::vector<std::pair<int, int>>{{0, 12}, {3, 20}, {8, 29}, {15, 27}})
+    add(a, b, solver.pose(a).inverse() * solver.pose(b) * Pose::fromSE2(0.3, -0.2, 0.05), 50.0,
+        FactorMode::kRobust);
+  add(5, 25, Pose::identity(), 50.0, FactorMode::kRobust);
+
+  auto expected = [&](int first, const std::vector<int>& without) {
+    double chi2 = 3.0, redundancy = 3.0;
+    for (int k = 0; k < static_cast<int>(terms.size()); ++k) {
+      const Term& t = terms[k];
+      if (std::max(t.a, t.b) < first || t.dormant || t.mode == FactorMode::kDisabled ||
+          std::find(without.begin(), without.end(), k) != without.end())
+        continue;
+      const double r = solver.whitenedNorm(k), w = solver.weight(k);
+      chi2 += w * r * r;
+      if (t.mode == FactorMode::kRobust) redundancy += 3.0 * w;
+    }
+    return chi2 / redundancy;
+  };
+  const int last = static_cast<int>(terms.size()) - 1;
+  auto check = [&](const std::string& after) {
+    for (int first : {0, 4, 13, 26, 30})
+      for (const std::vector<int>& without : {std::vector<int>{}, std::vector<int>{last, last - 2, last}}) {
+        const double want = expected(first, without);
+        EXPECT_NEAR(solver.varianceFactor(first, without), want, 1e-9 * want) << after << ", first " << first;
+      }
+  };
+  check("built");
+  for (int k = 30; k <= last; ++k) solver.setMu(k, 0.5);
+  check("mu set");
+  solver.iterate(10);
+  check("a window step");
+  solver.iterate(0);
+  check("a step on the whole graph");
+  solver.setMu(last, 1.0);
+  solver.setDormant(last, true);
+  terms[last].dormant = true;
+  check("dormant");
+  solver.setMode(last - 1, FactorMode::kDisabled);
+  terms[last - 1].mode = FactorMode::kDisabled;
+  solver.iterate(0);
+  check("disabled, then a step");
+  solver.setPose(17, Pose::fromSE2(3.0, 4.0, 1.0));
+  check("a pose set");
+  solver.setDormant(last, false);
+  terms[last].dormant = false;
+  solver.setMode(last - 1, FactorMode::kPlain);
+  terms[last - 1].mode = FactorMode::kPlain;
+  check("woken and forced");
+  solver.addPose(solver.pose(29) * Pose::fromSE2(1.0, 0.0, 0.2));
+  add(29, 30, Pose::fromSE2(1.0, 0.0, 0.2), 100.0, FactorMode::kPlain);
+  add(2, 30, Pose::identity(), 50.0, FactorMode::kRobust);
+  check("a pose and factors added");
+}
+
 TEST(SparsePoseGraphSolver, VarianceFactorLeavesOutWhatIsJudged) {
   SparsePoseGraphSolver solver(2);
   const int judged = straightChainWithLoopClosure(100.0, &solver);
