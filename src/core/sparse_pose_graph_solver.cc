@@ -560,14 +560,19 @@ std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(co
 
 SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPath(int factor, const std::vector<int>& path,
                                                                           double variance_factor) const {
-  // Small dynamic matrices on the stack (d is 3 or 6).
-  using Block = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 6, 6>;
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor, 6, 6>;
-  const int d = tangent_;
+  return tangent_ == 3 ? predictAlongPathOf<3>(factor, path, variance_factor)
+                       : predictAlongPathOf<6>(factor, path, variance_factor);
+}
+
+template <int D>
+SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPathOf(int factor, const std::vector<int>& path,
+                                                                            double variance_factor) const {
+  using Block = Eigen::Matrix<double, D, D>;
+  using RowMajor = Eigen::Matrix<double, D, D, Eigen::RowMajor>;
   const Factor& f = factors_[factor];
   Prediction out;
-  out.residual.resize(d);
-  out.covariance = Eigen::MatrixXd::Constant(d, d, std::numeric_limits<double>::infinity());
+  out.residual.resize(D);
+  out.covariance = Eigen::MatrixXd::Constant(D, D, std::numeric_limits<double>::infinity());
   double jac_a[36], jac_b[36];
   evaluate(f, out.residual.data(), jac_a, jac_b);
   if (f.a == kAnchor) return out;
@@ -576,7 +581,7 @@ SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPath(int fa
   // path says sqrt(w) (J_p dp + J_q dq) = n with n ~ N(0, I), so
   // dq = T dp + J_q^-1 n / sqrt(w) with T = -J_q^-1 J_p, and the
   // covariance of dq given dp's is T Sigma_p T^T + J_q^-1 J_q^-T / w.
-  Block sigma = Block::Zero(d, d);
+  Block sigma = Block::Zero();
   int at = older;
   double residual[6], jac_p[36], jac_q[36];
   for (int k : path) {
@@ -587,19 +592,18 @@ SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPath(int fa
     double w = step.mode == FactorMode::kDisabled ? 0.0 : 1.0;
     if (step.mode == FactorMode::kRobust) {
       double rho[3];
-      step.loss.Evaluate(Eigen::Map<const Eigen::VectorXd>(residual, d).squaredNorm(), rho);
+      step.loss.Evaluate(Eigen::Map<const Eigen::Matrix<double, D, 1>>(residual).squaredNorm(), rho);
       w = rho[1];
     }
     if (!(w > 0.0)) return out;
-    const Eigen::PartialPivLU<Block> j_q(Eigen::Map<const RowMajor>(jac_q, d, d));
-    const Block t = -j_q.solve(Block(Eigen::Map<const RowMajor>(jac_p, d, d)));
-    const Block j_q_inverse = j_q.inverse();
+    const Block j_q_inverse = Eigen::Map<const RowMajor>(jac_q).inverse();
+    const Block t = -j_q_inverse * Eigen::Map<const RowMajor>(jac_p);
     sigma = t * sigma * t.transpose() + (j_q_inverse * j_q_inverse.transpose()) / w;
     at = forward ? step.b : step.a;
   }
   if (at != newer || !sigma.allFinite()) return out;
-  const Eigen::Map<const RowMajor> j_newer(f.b == newer ? jac_b : jac_a, d, d);
-  out.covariance = variance_factor * (Eigen::MatrixXd::Identity(d, d) + j_newer * sigma * j_newer.transpose());
+  const Eigen::Map<const RowMajor> j_newer(f.b == newer ? jac_b : jac_a);
+  out.covariance = variance_factor * (Block::Identity() + j_newer * sigma * j_newer.transpose());
   return out;
 }
 

@@ -222,6 +222,9 @@ class SparsePoseGraphSolver {
   // and returns the robust cost of the window.
   template <int D>
   double linearize();
+  // predictAlongPath() in fixed-size arithmetic (tangent size D).
+  template <int D>
+  Prediction predictAlongPathOf(int factor, const std::vector<int>& path, double variance_factor) const;
   bool takeStep(int first, const Eigen::VectorXd& delta, double cost, IterationResult* result);
   // Ensures the cached structure is that of the window starting at `first`.
   void prepare(int first);
