@@ -257,7 +257,6 @@ class SparsePoseGraphSolver {
   // Keeps what the next iteration's forcing term needs: |g| and the
   // model's gradient |g + H s| after the step s just taken (h_step = H s).
   void rememberModel(double gradient_norm, const Eigen::VectorXd& h_step);
-  // The IRLS-weighted chi2 of the window's factors over their redundancy.
   // varianceFactor()'s terms (defined in the .cc file): a factor's are
   // evaluated again once it is marked stale -- its mu, mode or dormancy
   // changed, or an endpoint moved.
