@@ -240,8 +240,7 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
     selectGraduating(&plan);
     stats->graduated = static_cast<int>(plan.graduating.size());
     const Poses window_before = windowPoses(plan);
-    runGncSteps(&plan, stats);
-    settle(plan.first, maxSettleIterations(), plan.last_step, stats);
+    solveWindow(&plan, stats);
     rolled_back = trial && solver_.objective(plan.first) > before.objective;
     if (rolled_back) {
       const std::vector<int> competing = competingLandings(before, plan);
@@ -358,8 +357,7 @@ bool IncrementalGnc::releaseAndLand(const std::vector<int>& group, const std::ve
   solver_.resetTrustRegion();
   selectGraduating(&plan);
   const Poses window_before = windowPoses(plan);
-  runGncSteps(&plan, stats);
-  settle(plan.first, maxSettleIterations(), plan.last_step, stats);
+  solveWindow(&plan, stats);
   // Released landings the map ends agreeing with stay landed; those it
   // contradicts were the wrong ones.
   for (int index : released) {
@@ -681,6 +679,18 @@ bool IncrementalGnc::mayRefine(const UpdatePlan& plan) const {
   return plan.first > 0 && options_.window.global_refinement;
 }
 
+void IncrementalGnc::solveWindow(UpdatePlan* plan, UpdateStats* stats) {
+  // Landing a far loop closure frees its whole cycle so that the correction
+  // lands: there the trust region only has to keep the model honest, and a
+  // step the model predicts well goes as far as it keeps doing so
+  // (SparsePoseGraphSolver::setStepExtension). In a bounded window the
+  // radius also keeps a new outlier at a small mu from pulling the map far.
+  solver_.setStepExtension(!plan->cycles.empty());
+  runGncSteps(plan, stats);
+  settle(plan->first, maxSettleIterations(), plan->last_step, stats);
+  solver_.setStepExtension(false);
+}
+
 void IncrementalGnc::runGncSteps(UpdatePlan* plan, UpdateStats* stats) {
   // Every step sets mu of each graduating loop closure from its schedule,
   // then iterates while the steps are large: a large correction must land
@@ -742,7 +752,10 @@ bool IncrementalGnc::needsRefinement(const UpdatePlan& plan, const Poses& window
 
 void IncrementalGnc::refine(UpdateStats* stats) {
   const int before = stats->iterations;
+  // Every loop closure has graduated: nothing left for the radius to hold back.
+  solver_.setStepExtension(true);
   settle(0, maxSettleIterations(), std::numeric_limits<double>::infinity(), stats);
+  solver_.setStepExtension(false);
   stats->refinement_iterations = stats->iterations - before;
   unrefined_step_ = 0.0;
 }
@@ -784,7 +797,9 @@ void IncrementalGnc::settle(int first, int max_iterations, double last_step, Upd
 UpdateStats IncrementalGnc::optimize(int max_iterations) {
   UpdateStats stats;
   solver_.resetTrustRegion();
+  solver_.setStepExtension(true);  // as refine(): no loop closure is graduating
   settle(0, max_iterations, std::numeric_limits<double>::infinity(), &stats);
+  solver_.setStepExtension(false);
   classifyAll();
   total_iterations_ += stats.iterations;
   return stats;

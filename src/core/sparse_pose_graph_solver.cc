@@ -787,44 +787,77 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   const Eigen::VectorXd hg = hessian_.selfadjointView<Eigen::Upper>() * gradient_;
   const double g2 = gradient_.squaredNorm();
   const double ghg = gradient_.dot(hg);
-  const Eigen::VectorXd steepest = ghg > 0 ? Eigen::VectorXd(-(g2 / ghg) * gradient_)
-                                           : Eigen::VectorXd(-gradient_);
+  const DoglegPath path{gauss_newton,
+                        ghg > 0 ? Eigen::VectorXd(-(g2 / ghg) * gradient_) : Eigen::VectorXd(-gradient_)};
   for (int attempt = 0; attempt < kMaxDampingAttempts; ++attempt) {
-    Eigen::VectorXd step;
-    const double gn_norm = gauss_newton.allFinite() ? gauss_newton.norm() : std::numeric_limits<double>::infinity();
-    if (gn_norm <= radius_) {
-      step = gauss_newton;
-    } else if (steepest.norm() >= radius_ || !gauss_newton.allFinite()) {
-      step = (radius_ / steepest.norm()) * steepest;
-    } else {
-      // Point on the segment steepest -> gauss_newton at distance radius_.
-      const Eigen::VectorXd d = gauss_newton - steepest;
-      const double a = d.squaredNorm(), b = 2.0 * steepest.dot(d),
-                   c = steepest.squaredNorm() - radius_ * radius_;
-      const double tau = (-b + std::sqrt(std::max(0.0, b * b - 4.0 * a * c))) / (2.0 * a);
-      step = steepest + tau * d;
-    }
-    const Eigen::VectorXd h_step = hessian_.selfadjointView<Eigen::Upper>() * step;
-    const double predicted = -(gradient_.dot(step) + 0.5 * step.dot(h_step));
-    const double step_norm = step.norm();
-    const bool accepted = takeStep(first, step, cost, &result);
-    result.truncated = !(gn_norm <= radius_);
-    const double actual = cost - result.cost_after;
-    // Near convergence both decreases are round-off; their ratio says nothing
-    // about the model, so the radius is left alone there.
-    const bool meaningful = predicted > 1e-10 * std::max(1.0, std::abs(cost));
-    const double ratio = predicted > 0 ? actual / predicted : -1.0;
-    if (meaningful && ratio >= kGoodRatio)
+    TrialStep trial = tryStep(first, path, radius_, cost, &result);
+    const double step_norm = trial.step.norm();
+    if (trial.meaningful && trial.ratio >= kGoodRatio)
       radius_ = std::min(max_radius_, std::max(radius_, kGrowth * step_norm));
-    else if (meaningful && ratio < kPoorRatio)
+    else if (trial.meaningful && trial.ratio < kPoorRatio)
       radius_ = std::max(kMinRadius, kShrink * std::min(radius_, step_norm));
-    if (accepted) {
-      rememberModel(gradient_norm, h_step);
+    if (result.accepted) {
+      if (step_extension_ && result.truncated && trial.meaningful && trial.ratio >= kGoodRatio)
+        extendStep(first, path, cost, &trial, &result);
+      rememberModel(gradient_norm, trial.h_step);
       return result;
     }
-    if (!meaningful) return result;  // converged: nothing left to gain
+    if (!trial.meaningful) return result;  // converged: nothing left to gain
   }
   return result;
+}
+
+Eigen::VectorXd SparsePoseGraphSolver::DoglegPath::at(double radius) const {
+  const double gn_norm = gaussNewtonNorm();
+  if (gn_norm <= radius) return gauss_newton;
+  const double sd_norm = steepest.norm();
+  if (sd_norm >= radius || !gauss_newton.allFinite()) return (radius / sd_norm) * steepest;
+  // The point on the segment steepest -> gauss_newton at distance radius.
+  const Eigen::VectorXd d = gauss_newton - steepest;
+  const double a = d.squaredNorm(), b = 2.0 * steepest.dot(d), c = steepest.squaredNorm() - radius * radius;
+  const double tau = (-b + std::sqrt(std::max(0.0, b * b - 4.0 * a * c))) / (2.0 * a);
+  return steepest + tau * d;
+}
+
+double SparsePoseGraphSolver::DoglegPath::gaussNewtonNorm() const {
+  return gauss_newton.allFinite() ? gauss_newton.norm() : std::numeric_limits<double>::infinity();
+}
+
+SparsePoseGraphSolver::TrialStep SparsePoseGraphSolver::tryStep(int first, const DoglegPath& path, double radius,
+                                                                double cost, IterationResult* result) {
+  TrialStep trial;
+  trial.step = path.at(radius);
+  trial.h_step = hessian_.selfadjointView<Eigen::Upper>() * trial.step;
+  const double predicted = -(gradient_.dot(trial.step) + 0.5 * trial.step.dot(trial.h_step));
+  takeStep(first, trial.step, cost, result);
+  result->truncated = !(path.gaussNewtonNorm() <= radius);
+  // Near convergence both decreases are round-off; their ratio says nothing
+  // about the model, so the radius is left alone there.
+  trial.meaningful = predicted > 1e-10 * std::max(1.0, std::abs(cost));
+  trial.ratio = predicted > 0 ? (cost - result->cost_after) / predicted : -1.0;
+  return trial;
+}
+
+void SparsePoseGraphSolver::extendStep(int first, const DoglegPath& path, double cost, TrialStep* taken,
+                                       IterationResult* result) {
+  // radius_ has grown to kGrowth times the step just taken; try the longer
+  // step of the same path, on the same linearisation, while it lowers the
+  // cost further and the model still predicts the decrease.
+  while (result->truncated && radius_ > taken->step.norm()) {
+    IterationResult longer_result;
+    longer_result.cost_before = result->cost_before;
+    const TrialStep longer = tryStep(first, path, radius_, cost, &longer_result);
+    const bool better = longer_result.accepted && longer_result.cost_after < result->cost_after;
+    if (!better || longer.ratio < kGoodRatio) {
+      if (longer.ratio < kPoorRatio) radius_ = std::max(taken->step.norm(), kShrink * longer.step.norm());
+      IterationResult restored;
+      takeStep(first, taken->step, cost, &restored);  // back to the last step the model predicted
+      return;
+    }
+    *taken = longer;
+    *result = longer_result;
+    radius_ = std::min(max_radius_, std::max(radius_, kGrowth * longer.step.norm()));
+  }
 }
 
 bool SparsePoseGraphSolver::takeStep(int first, const Eigen::VectorXd& delta, double cost,

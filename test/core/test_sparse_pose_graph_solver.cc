@@ -630,3 +630,39 @@ TEST(SparsePoseGraphSolver, VarianceFactorLeavesOutWhatIsJudged) {
   EXPECT_NEAR(solver.varianceFactor(0, {}), 12.0 / 5.7, 1e-9);
   EXPECT_NEAR(solver.varianceFactor(3, {}), 12.0 / 3.0, 1e-9);
 }
+
+// A correction far beyond the trust region on a problem the quadratic model
+// describes exactly (a pure translation of everything but the anchored pose):
+// with step extension the first iteration goes all the way, on one
+// factorisation; without it the radius bounds the step.
+TEST(SparsePoseGraphSolver, StepExtensionGoesAsFarAsTheModelPredicts) {
+  for (int dimension : {2, 3}) {
+    auto displaced = [dimension](bool extension) {
+      auto solver = std::make_unique<SparsePoseGraphSolver>(dimension);
+      lattice(6, solver.get());
+      const Pose shift = dimension == 2 ? Pose::fromSE2(40.0, -25.0, 0.0) : Pose::fromXYZRPY(40.0, -25.0, 10.0, 0, 0, 0);
+      for (int i = 1; i < solver->numPoses(); ++i) solver->setPose(i, shift * solver->pose(i));
+      solver->setTrustRegion(true, 1.0, 1e3);
+      solver->setStepExtension(extension);
+      return solver;
+    };
+    auto bounded = displaced(false);
+    auto extended = displaced(true);
+    const IterationResult b = bounded->iterate(0);
+    const long factorizations = extended->factorizations();
+    const IterationResult e = extended->iterate(0);
+    EXPECT_TRUE(b.accepted && b.truncated) << dimension << "-D: the radius bounds the step";
+    EXPECT_TRUE(e.accepted) << dimension << "-D";
+    EXPECT_FALSE(e.truncated) << dimension << "-D: extended to the Gauss-Newton step";
+    EXPECT_EQ(extended->factorizations(), factorizations + 1) << dimension << "-D: on one factorisation";
+    EXPECT_LT(e.cost_after, 1e-3 * b.cost_after) << dimension << "-D";
+    // The bounded solver needs more iterations to reach the same minimum.
+    int iterations = 1;
+    while (bounded->totalCost() > 1.0001 * extended->totalCost() && iterations < 50) {
+      bounded->iterate(0);
+      ++iterations;
+    }
+    EXPECT_GT(iterations, 3) << dimension << "-D";
+    EXPECT_LT(iterations, 50) << dimension << "-D";
+  }
+}

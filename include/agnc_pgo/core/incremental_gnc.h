@@ -223,6 +223,8 @@ class IncrementalGnc {
                      double log_volume) const;
   void planWindow(UpdatePlan* plan) const;
   void selectGraduating(UpdatePlan* plan);
+  // The GNC steps and the settle iterations of a pass on its window.
+  void solveWindow(UpdatePlan* plan, UpdateStats* stats);
   void runGncSteps(UpdatePlan* plan, UpdateStats* stats);
   // Adds what the window moved to the displacement not yet refined; true
   // if it calls for the whole-graph refinement (refine()).
