@@ -21,12 +21,18 @@ ctest --test-dir "$AGNC_BUILD" --output-on-failure --timeout 600
 ctest_status=$?
 set -e
 
-# The catkin results summary counts every gtest/rostest case that ran.
+# The catkin results summary says whether anything failed; the counts come
+# from the test cases themselves (catkin_test_results counts each gtest case
+# twice, see scripts/count_tests.py).
 summary=$(catkin_test_results "$AGNC_BUILD/test_results" 2>&1 | tail -1 || true)  # non-zero on failures
 echo "$summary"
-tests=$(echo "$summary" | sed -n 's/^Summary: \([0-9]*\) tests.*/\1/p')
 errors=$(echo "$summary" | sed -n 's/.* \([0-9]*\) errors.*/\1/p')
 failures=$(echo "$summary" | sed -n 's/.* \([0-9]*\) failures.*/\1/p')
+read -r tests failed_cases < <(/usr/bin/python3 "$AGNC_ROOT/scripts/count_tests.py" "$AGNC_BUILD/test_results")
+if [ "${errors:-0}" -ne 0 ] || [ "${failures:-0}" -ne 0 ]; then
+  errors=0
+  failures=$(( failed_cases > 0 ? failed_cases : 1 ))
+fi
 if [ -z "$tests" ] || [ "$tests" -eq 0 ]; then
   echo "[agnc_pgo] no test ran" >&2
   exit 1
