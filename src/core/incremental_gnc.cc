@@ -752,10 +752,7 @@ bool IncrementalGnc::needsRefinement(const UpdatePlan& plan, const Poses& window
 
 void IncrementalGnc::refine(UpdateStats* stats) {
   const int before = stats->iterations;
-  // Every loop closure has graduated: nothing left for the radius to hold back.
-  solver_.setStepExtension(true);
-  settle(0, maxSettleIterations(), std::numeric_limits<double>::infinity(), stats);
-  solver_.setStepExtension(false);
+  settleWholeGraph(maxSettleIterations(), stats);
   stats->refinement_iterations = stats->iterations - before;
   unrefined_step_ = 0.0;
 }
@@ -794,12 +791,17 @@ void IncrementalGnc::settle(int first, int max_iterations, double last_step, Upd
   stats->converged = last_step < options_.solver.convergence_step;
 }
 
+void IncrementalGnc::settleWholeGraph(int max_iterations, UpdateStats* stats) {
+  // No loop closure is graduating: nothing left for the radius to hold back.
+  solver_.setStepExtension(true);
+  settle(0, max_iterations, std::numeric_limits<double>::infinity(), stats);
+  solver_.setStepExtension(false);
+}
+
 UpdateStats IncrementalGnc::optimize(int max_iterations) {
   UpdateStats stats;
   solver_.resetTrustRegion();
-  solver_.setStepExtension(true);  // as refine(): no loop closure is graduating
-  settle(0, max_iterations, std::numeric_limits<double>::infinity(), &stats);
-  solver_.setStepExtension(false);
+  settleWholeGraph(max_iterations, &stats);
   classifyAll();
   total_iterations_ += stats.iterations;
   return stats;

@@ -249,6 +249,8 @@ class IncrementalGnc {
   // Iterates until the mean step falls below convergence_step (at most
   // max_iterations); sets stats->converged.
   void settle(int first_variable, int max_iterations, double last_step, UpdateStats* stats);
+  // settle() on the whole graph with step extension (refine(), optimize()).
+  void settleWholeGraph(int max_iterations, UpdateStats* stats);
 
   int dimension_;
   GncOptions options_;
