@@ -25,11 +25,11 @@ set -e
 # from the test cases themselves (catkin_test_results counts each gtest case
 # twice, see scripts/count_tests.py).
 summary=$(catkin_test_results "$AGNC_BUILD/test_results" 2>&1 | tail -1 || true)  # non-zero on failures
-echo "$summary"
 errors=$(echo "$summary" | sed -n 's/.* \([0-9]*\) errors.*/\1/p')
 failures=$(echo "$summary" | sed -n 's/.* \([0-9]*\) failures.*/\1/p')
 read -r tests failed_cases < <(/usr/bin/python3 "$AGNC_ROOT/scripts/count_tests.py" "$AGNC_BUILD/test_results")
 if [ "${errors:-0}" -ne 0 ] || [ "${failures:-0}" -ne 0 ]; then
+  echo "[agnc_pgo] catkin_test_results: $summary"
   errors=0
   failures=$(( failed_cases > 0 ? failed_cases : 1 ))
 fi
