@@ -150,10 +150,15 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
       loop->inlier = schedule_.classifiesAsInlier(loop->distance);
       break;
   }
-  const bool rejected_at_one = loop->override_mode == LoopOverride::kAuto &&
-                               options_.schedule.kind != ScheduleKind::kNone && !loop->graduation.graduating &&
-                               loop->graduation.mu >= 1.0;
-  setDormant(loop, rejected_at_one && loop->weight < options_.rejection.dormant_weight);
+  // A loop closure the graduation rejected at mu = 1 leaves the cost and
+  // the linear system: whatever its Geman-McClure weight there, it does not
+  // pull the map. A group of consistent false loop closures 20-50 poses back
+  // keeps weights up to 0.017 at mu = 1; ten of them held M3500 0.2 m from
+  // its outlier-free optimum. Whether a reset gives it another look is
+  // staysDormant's question.
+  const bool at_one = loop->override_mode == LoopOverride::kAuto && options_.schedule.kind != ScheduleKind::kNone &&
+                      !loop->graduation.graduating && loop->graduation.mu >= 1.0;
+  setDormant(loop, at_one && !schedule_.isInlier(schedule_.distanceOf(loop->distance)));
 }
 
 void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
@@ -164,7 +169,10 @@ void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
 bool IncrementalGnc::staysDormant(const LoopClosure& loop) const {
   if (!loop.dormant) return false;
   // A restart that begins at mu = 1 would graduate it at the weight it has
-  // now; if that is still negligible, graduating it changes nothing.
+  // now; if that is still negligible, graduating it changes nothing. One
+  // that is not comes back for the restart: its pull, small as it is, is
+  // part of how a true loop closure rejected under drift comes back once
+  // its neighbours land (leaving it out then folds heavy-noise maps).
   const GraduationState& g = loop.graduation;
   const bool restarts_at_one = options_.schedule.kind == ScheduleKind::kRisam
                                    ? g.mu_init >= 1.0

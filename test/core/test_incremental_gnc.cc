@@ -234,6 +234,28 @@ TEST(IncrementalGnc, GrossOutlierIsRejectedAndLeavesTheEstimate) {
   EXPECT_LT((engine.pose(2).translation - before.translation).norm(), 1e-3);
 }
 
+// A loop closure rejected at mu = 1 goes dormant whatever its weight there:
+// 20 sigma off, its Geman-McClure weight is still 5e-4, and kept in the
+// cost that tail would pull the square by millimetres.
+TEST(IncrementalGnc, ARejectedLoopClosureDoesNotPullTheMap) {
+  auto with_outlier = squareEngine(GncOptions());
+  auto without = squareEngine(GncOptions());
+  for (IncrementalGnc* engine : {with_outlier.get(), without.get()}) {
+    engine->addLoopClosure(edge(4, 0, Pose::fromSE2(0, 0, 0)));
+    engine->update();
+  }
+  // The true relative pose is (1, 1, pi); this one is 2 m (20 sigma) off.
+  with_outlier->addLoopClosure(edge(3, 1, Pose::fromSE2(3.0, 1.0, M_PI)));
+  with_outlier->update();
+  for (IncrementalGnc* engine : {with_outlier.get(), without.get()}) engine->optimize(20);
+  const LoopClosure& outlier = with_outlier->loopClosures()[1];
+  EXPECT_FALSE(outlier.inlier);
+  EXPECT_GT(outlier.weight, 1e-4);  // far above dormant_weight
+  EXPECT_TRUE(outlier.dormant);
+  for (int i = 0; i < 5; ++i)
+    EXPECT_LT((with_outlier->pose(i).translation - without->pose(i).translation).norm(), 1e-9) << i;
+}
+
 TEST(IncrementalGnc, BadInputIsRejectedAndTheGraphStaysIntact) {
   auto owned = squareEngine(GncOptions());
   IncrementalGnc& engine = *owned;
@@ -377,27 +399,6 @@ TEST(IncrementalGncEndToEnd, OutliersDoNotFoldManhattan) {
   EXPECT_LT(absoluteTrajectoryError(result.estimate, reference.poses, 2), 0.1);
 }
 
-// Rejected random outliers leave the cost once their weight falls below
-// dormant_weight; kept down to 1e-8, the sum of their Geman-McClure tails
-// pulls the map away from the inlier optimum.
-TEST(IncrementalGncEndToEnd, RejectedOutliersStopPullingManhattan) {
-  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
-  PoseGraph reference;
-  const PoseGraph graph = withOutliers(firstPoses(readG2o(dataset("manhattanOlson3500.g2o")), 1200),
-                                       "manhattanOlson3500", 50.0, 1, &reference);
-  const IncrementalLog log = logFromGraph(graph, "m1200");
-  ReplayOptions options;
-  const ReplayResult result = replay(log, options);
-  options.gnc.rejection.dormant_weight = 1e-8;
-  const ReplayResult pulled = replay(log, options);
-  EXPECT_DOUBLE_EQ(result.counts.precision(), 1.0);
-  EXPECT_DOUBLE_EQ(pulled.counts.precision(), 1.0);
-  const double ate = absoluteTrajectoryError(result.estimate, reference.poses, 2);
-  const double ate_pulled = absoluteTrajectoryError(pulled.estimate, reference.poses, 2);
-  EXPECT_LT(ate, 0.05);  // measured 0.025 m (0.142 m pulled)
-  EXPECT_LT(ate, 0.5 * ate_pulled);
-}
-
 // Perceptual aliasing: groups of ten false loop closures that agree with
 // each other (one shared wrong measurement). Each new member corroborates
 // the rejected ones, so the group is landed again and again; graduation
@@ -451,15 +452,16 @@ LocalGroupedManhattan replayLocalGroupedManhattan(int seed) {
 // corridor a few poses on agrees with itself but not with the bent map, and
 // landing it is refused as a trial. The refused group then gets the other
 // hypothesis tried: the earlier landings in its window released, it lands,
-// and the objective is lower. Measured: P = R = 1, ATE 0.197 m from the
+// and the objective is lower. Measured: P = R = 1, ATE 0.0013 m from the
 // outlier-free optimum (without the second hypothesis: P 0.995, R 0.989,
-// 0.871 m).
+// 0.871 m; with the rejected group kept in the cost, at weights of up to
+// 0.017 at mu = 1: 0.197 m).
 TEST(IncrementalGncEndToEnd, ARefusedRevisitReleasesTheFalseGroupItContradicts) {
   AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
   const LocalGroupedManhattan run = replayLocalGroupedManhattan(2);
   EXPECT_DOUBLE_EQ(run.result.counts.precision(), 1.0);
   EXPECT_DOUBLE_EQ(run.result.counts.recall(), 1.0);
-  EXPECT_LT(run.ate_vs_optimum, 0.3);
+  EXPECT_LT(run.ate_vs_optimum, 0.05);
 }
 
 // The same, where the refused trial cannot show which landing the revisit

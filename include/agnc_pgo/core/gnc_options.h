@@ -108,12 +108,13 @@ struct GncOptions {
 
   // Loop closures rejected on arrival or by graduation.
   struct Rejection {
-    // A rejected loop closure whose kernel weight at mu = 1 is below this
-    // leaves the cost and the linear system until a reset would give it
-    // weight again (0: never). Keeping random false loop closures costs
-    // fill-in (on M3500 they made full solves ~6x slower) and accuracy:
-    // their Geman-McClure tails pull the map (M3500 at 50 %: ATE 0.934 m
-    // kept down to 1e-8, 0.810 m from 1e-6, against 0.795 m without outliers).
+    // A loop closure the graduation rejected at mu = 1 leaves the cost and
+    // the linear system (dormant): its Geman-McClure tail would pull the map
+    // (a rejected group of local false loop closures keeps weights up to
+    // 0.017) and its fill-in slow every solve. A reset (ResetPolicy) brings
+    // it back for another look unless its weight at mu = 1 is below this:
+    // then graduating it again would change nothing (0: a reset always
+    // brings it back).
     double dormant_weight = 1e-6;
     // A new loop closure that is a confident outlier by its own covariance
     // (beyond q(0.9)) is landed -- its whole cycle freed -- when a rejected
