@@ -268,7 +268,7 @@ class IncrementalGnc {
   // map's prediction from above, so a bound <= 0 on it decides as the
   // prediction would; only where it no longer does is the map searched.
   std::unordered_map<int, std::vector<int>> paths_ruled_out_;
-  double unrefined_step_ = 0.0;  // window displacements since the last converged whole-graph refinement
+  double unrefined_step_ = 0.0;  // window displacements since the last whole-graph refinement
   long total_iterations_ = 0;
   long total_gnc_steps_ = 0;
 };
