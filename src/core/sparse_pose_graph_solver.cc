@@ -421,21 +421,23 @@ bool SparsePoseGraphSolver::factorize() {
   return factor_valid_;
 }
 
-Eigen::VectorXd SparsePoseGraphSolver::gaussNewtonStep() {
+Eigen::VectorXd SparsePoseGraphSolver::gaussNewtonStep(double* residual) {
   const Eigen::VectorXd b = -gradient_;
   Eigen::VectorXd step;
-  if (factor_valid_ && solveWithLastFactor(b, &step)) return step;
+  if (factor_valid_ && solveWithLastFactor(b, &step, residual)) return step;
+  *residual = 0.0;
   if (!factorize()) return Eigen::VectorXd();
   return solve(b);
 }
 
-bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x) {
+bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x, double* residual_out) {
   // Worth trying only if CG can succeed for less than a factorisation:
   // after the first solve and its residual, a change of one loop
   // closure's weight (rank d) takes d + 1 iterations in exact arithmetic.
   if ((3.0 + tangent_) * iteration_flops_ >= factorization_flops_) return false;
   const auto h = hessian_.selfadjointView<Eigen::Upper>();
   const double b_norm = b.norm();
+  *residual_out = 0.0;
   if (!(b_norm > 0.0)) {  // at a stationary point the step is zero
     *x = Eigen::VectorXd::Zero(b.size());
     return true;
@@ -445,6 +447,7 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
   Eigen::VectorXd r = b - h * *x;
   double spent = 2.0 * iteration_flops_;  // the first solve and residual
   if (!x->allFinite()) return false;
+  *residual_out = r.norm() / b_norm;
   if (solvedEnough(*x, r.norm() / b_norm)) return true;
   const double first_residual = r.norm();
   Eigen::VectorXd z = solve(r);
@@ -459,6 +462,7 @@ bool SparsePoseGraphSolver::solveWithLastFactor(const Eigen::VectorXd& b, Eigen:
     *x += alpha * p;
     r -= alpha * hp;
     const double residual = r.norm();
+    *residual_out = residual / b_norm;
     if (solvedEnough(*x, residual / b_norm)) return x->allFinite();
     // At the rate the residual has fallen so far, CG must reach the
     // tolerance before it has cost a new factorisation.
@@ -769,14 +773,17 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   saved_.assign(blocks_.begin() + first, blocks_.end());
   const double gradient_norm = gradient_.norm();
   chooseForcingTerm(gradient_norm);
-  Eigen::VectorXd gauss_newton = gaussNewtonStep();
+  Eigen::VectorXd gauss_newton = gaussNewtonStep(&result.solve_residual);
   if (gauss_newton.size() == 0 || !gauss_newton.allFinite()) {
     // Singular system: fall back to steepest descent inside the trust region.
     gauss_newton = Eigen::VectorXd::Constant(gradient_.size(), std::numeric_limits<double>::infinity());
+    result.solve_residual = 1.0;
   }
   if (!trust_region_) {
-    if (takeStep(first, gauss_newton, cost, &result))
-      rememberModel(gradient_norm, hessian_.selfadjointView<Eigen::Upper>() * gauss_newton);
+    if (!gauss_newton.allFinite()) return result;
+    const Eigen::VectorXd h_step = hessian_.selfadjointView<Eigen::Upper>() * gauss_newton;
+    result.predicted_decrease = -(gradient_.dot(gauss_newton) + 0.5 * gauss_newton.dot(h_step));
+    if (takeStep(first, gauss_newton, cost, &result)) rememberModel(gradient_norm, h_step);
     return result;
   }
 
@@ -830,6 +837,7 @@ SparsePoseGraphSolver::TrialStep SparsePoseGraphSolver::tryStep(int first, const
   trial.h_step = hessian_.selfadjointView<Eigen::Upper>() * trial.step;
   const double predicted = -(gradient_.dot(trial.step) + 0.5 * trial.step.dot(trial.h_step));
   takeStep(first, trial.step, cost, result);
+  result->predicted_decrease = predicted;
   result->truncated = !(path.gaussNewtonNorm() <= radius);
   // Near convergence both decreases are round-off; their ratio says nothing
   // about the model, so the radius is left alone there.

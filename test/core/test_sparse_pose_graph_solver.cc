@@ -151,6 +151,31 @@ TEST(SparsePoseGraphSolver, WindowHoldsOlderPosesFixed) {
   for (int i = 0; i < 5; ++i) EXPECT_EQ(solver.pose(i).translation, g.poses[i].translation) << i;
 }
 
+// Along a straight chain the 0.3 m a loop closure asks for is a pure
+// translation: the cost is quadratic in it, so the model predicts the
+// decrease exactly; on a curved graph it does not.
+TEST(SparsePoseGraphSolver, IterationReportsTheModelsPredictedDecreaseAndItsSolve) {
+  SparsePoseGraphSolver straight(2);
+  straightChainWithLoopClosure(100.0, &straight);
+  const IterationResult r = straight.iterate(0);
+  ASSERT_TRUE(r.accepted);
+  EXPECT_FALSE(r.truncated);
+  EXPECT_EQ(r.solve_residual, 0.0) << "a factorisation solves exactly";
+  EXPECT_GT(r.predicted_decrease, 1.0);
+  EXPECT_NEAR(r.cost_before - r.cost_after, r.predicted_decrease, 1e-9 * r.predicted_decrease);
+
+  SparsePoseGraphSolver curved(2);
+  for (int i = 0; i < 5; ++i) curved.addPose(Pose::fromSE2(i, 0, 0));
+  curved.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity(),
+                   FactorMode::kPlain);
+  for (int i = 0; i < 4; ++i)
+    curved.addFactor(i, i + 1, Pose::fromSE2(1, 0, 0.3), 100.0 * Eigen::Matrix3d::Identity(), FactorMode::kPlain);
+  const IterationResult c = curved.iterate(0);
+  ASSERT_TRUE(c.accepted);
+  EXPECT_GT(std::abs(1.0 - (c.cost_before - c.cost_after) / c.predicted_decrease), 1e-3)
+      << "a turn makes the cost non-quadratic in the step";
+}
+
 TEST(SparsePoseGraphSolver, DisabledFactorHasNoWeightAndNoInfluence) {
   SparsePoseGraphSolver solver(2);
   solver.addPose(Pose::fromSE2(0, 0, 0));

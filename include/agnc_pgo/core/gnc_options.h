@@ -77,7 +77,10 @@ struct GncOptions {
     // changes little costs one iteration (riSAM: one iSAM2 update per step).
     int max_iterations_per_step = 10;
     // After graduation, iterations continue until the mean tangent step per
-    // pose falls below `convergence_step` or `max_settle_iterations`.
+    // pose falls below `convergence_step` or `max_settle_iterations`. The
+    // step judged is the next one as far as this one predicts it: after a
+    // full Gauss-Newton step, its linear solve's residual plus 3/2 |1 - rho|
+    // of it (rho: actual over predicted decrease), never more than itself.
     int max_settle_iterations = 3;
     double convergence_step = 0.01;
     // Powell dogleg trust region for every iteration (riSAM runs iSAM2 with

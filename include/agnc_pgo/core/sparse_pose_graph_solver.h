@@ -42,6 +42,13 @@ struct IterationResult {
   double cost_before = 0;  // robust cost of the window's factors before the step
   double cost_after = 0;
   double mean_step = 0;    // mean tangent-step norm per variable pose
+  // The decrease the Gauss-Newton model predicted for the step taken,
+  // -(g.delta + delta' H delta / 2); its ratio to the actual decrease says
+  // how well the model describes the cost there.
+  double predicted_decrease = 0;
+  // How exactly the Gauss-Newton step solved H delta = -g: |H delta + g| / |g|
+  // (0 after a factorisation; CG stops within the forcing term).
+  double solve_residual = 1.0;
   bool accepted = false;   // false: no step reduced the cost; the estimate is unchanged
   bool truncated = false;  // the step was cut short by the trust region (not a full Gauss-Newton step)
 };
@@ -263,12 +270,12 @@ class SparsePoseGraphSolver {
   // changes little between the iterations of a solve: a graduating loop
   // closure's weight is a low-rank change, a small step a small one), else
   // by a new factorisation. CG solves only as exactly as forcing_ asks.
-  // Empty if H is not positive definite.
-  Eigen::VectorXd gaussNewtonStep();
+  // Empty if H is not positive definite. `residual`: |H x + g| / |g| reached.
+  Eigen::VectorXd gaussNewtonStep(double* residual);
   // Preconditioned conjugate gradients on H x = b, starting from the
   // preconditioned b; false if the residual did not fall below
-  // forcing_ |b| within a factorisation's cost.
-  bool solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x);
+  // forcing_ |b| within a factorisation's cost; `residual`: |H x - b| / |b| reached.
+  bool solveWithLastFactor(const Eigen::VectorXd& b, Eigen::VectorXd* x, double* residual);
   // Whether CG may stop at x with relative residual `relative`: within the
   // forcing term, and exact if x is small enough to end the iterations.
   bool solvedEnough(const Eigen::VectorXd& x, double relative) const;
