@@ -20,9 +20,6 @@ namespace {
 // without graduation, a loop closure's whole correction lands at once.
 constexpr int kMinPlainIterations = 10;
 
-// Below this fraction of the cost, a predicted decrease is round-off (as
-// the solver's trust region judges it).
-constexpr double kRoundOff = 1e-10;
 // The next Gauss-Newton step over this one per unit of |1 - rho| when the
 // model's error is cubic (convergenceStep).
 constexpr double kCubicNextStep = 1.5;
@@ -41,8 +38,7 @@ constexpr double kCubicNextStep = 1.5;
 // was loose, the step itself counts as before.
 double convergenceStep(const IterationResult& r) {
   if (r.truncated) return std::numeric_limits<double>::infinity();
-  const bool meaningful = r.predicted_decrease > kRoundOff * std::max(1.0, std::abs(r.cost_before));
-  if (!meaningful) return r.mean_step;
+  if (!SparsePoseGraphSolver::meaningfulDecrease(r.predicted_decrease, r.cost_before)) return r.mean_step;
   const double rho = (r.cost_before - r.cost_after) / r.predicted_decrease;
   return r.mean_step * std::min(1.0, kCubicNextStep * std::abs(1.0 - rho) + r.solve_residual);
 }

@@ -841,7 +841,7 @@ SparsePoseGraphSolver::TrialStep SparsePoseGraphSolver::tryStep(int first, const
   result->truncated = !(path.gaussNewtonNorm() <= radius);
   // Near convergence both decreases are round-off; their ratio says nothing
   // about the model, so the radius is left alone there.
-  trial.meaningful = predicted > 1e-10 * std::max(1.0, std::abs(cost));
+  trial.meaningful = meaningfulDecrease(predicted, cost);
   trial.ratio = predicted > 0 ? (cost - result->cost_after) / predicted : -1.0;
   return trial;
 }

@@ -21,6 +21,8 @@
 // disabled.
 #pragma once
 
+#include <algorithm>
+#include <cmath>
 #include <limits>
 #include <memory>
 #include <vector>
@@ -62,6 +64,12 @@ class SparsePoseGraphSolver {
   ~SparsePoseGraphSolver();
   SparsePoseGraphSolver(SparsePoseGraphSolver&&) noexcept;
   SparsePoseGraphSolver& operator=(SparsePoseGraphSolver&&) noexcept;
+
+  // Whether a decrease the model predicts at this cost is more than
+  // round-off; below it, the ratio of actual to predicted says nothing.
+  static bool meaningfulDecrease(double predicted, double cost) {
+    return predicted > 1e-10 * std::max(1.0, std::abs(cost));
+  }
 
   int dimension() const { return dimension_; }
   int numPoses() const { return static_cast<int>(blocks_.size()); }
