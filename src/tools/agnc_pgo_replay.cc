@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <iomanip>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -229,6 +230,156 @@ double peakRssMb() {
   return usage.ru_maxrss / 1024.0;  // ru_maxrss is in KiB on Linux
 }
 
+// The engine's run over the log, with a progress line unless quiet.
+ReplayResult runReplay(const IncrementalLog& log, const Arguments& args) {
+  ReplayOptions options;
+  options.gnc = args.gnc;
+  auto last_print = std::chrono::steady_clock::now();
+  if (!args.quiet) {
+    options.progress = [&last_print](size_t done, size_t total) {
+      const auto now = std::chrono::steady_clock::now();
+      if (now - last_print < std::chrono::seconds(1) && done != total) return;
+      last_print = now;
+      std::cerr << "\r  replay " << done << "/" << total << " entries" << (done == total ? "\n" : "")
+                << std::flush;
+    };
+  }
+  return replay(log, options);
+}
+
+// What the estimate is measured against: the outlier-free least-squares
+// optimum, the lowest of Levenberg-Marquardt from the odometry, the global
+// initialisation and the ground truth (LM from the odometry alone can end in
+// a local minimum), with every start's chi2, so that a bad reference shows.
+struct Reference {
+  PoseGraph optimum;
+  GlobalBatchResult batch;
+  long redundancy = 0;
+  double chi2_per_redundancy = NAN;
+  std::string start_json, start_text;
+};
+
+Reference computeReference(const IncrementalLog& log, const PoseGraph* ground_truth) {
+  Reference reference;
+  reference.optimum = graphFromLog(log);
+  BatchOptions batch;
+  batch.skip_outliers = true;
+  reference.batch = optimizeBatchGlobal(&reference.optimum, batch, ground_truth ? &ground_truth->poses : nullptr);
+  std::ostringstream start_json, start_text;
+  for (const BatchStartResult& s : reference.batch.starts) {
+    const char* separator = &s == &reference.batch.starts.front() ? "" : ", ";
+    start_json << separator << '"' << toString(s.start) << "\": " << jsonNumber(s.chi2);
+    start_text << separator << toString(s.start) << ' ' << (s.error.empty() ? jsonNumber(s.chi2) : s.error);
+  }
+  reference.start_json = start_json.str();
+  reference.start_text = start_text.str();
+  reference.redundancy = outlierFreeRedundancy(log);
+  if (reference.redundancy > 0)
+    reference.chi2_per_redundancy = reference.batch.chi2 / static_cast<double>(reference.redundancy);
+  return reference;
+}
+
+// Accuracy against the ground truth (NaN without one) and the reference,
+// and the latency percentiles.
+struct Summary {
+  double ate = NAN, rpe = NAN, ate_inlier_optimum = NAN;
+  double p50 = NAN, p95 = NAN, pmax = NAN;  // loop-closure updates, ms
+  double f50 = NAN, f95 = NAN, fmax = NAN;  // the first estimate of each, ms
+};
+
+Summary summarize(const IncrementalLog& log, const ReplayResult& result, const PoseGraph* ground_truth,
+                  const Reference& reference) {
+  Summary s;
+  if (ground_truth) {
+    s.ate = absoluteTrajectoryError(result.estimate, ground_truth->poses, log.dimension);
+    s.rpe = relativePoseError(result.estimate, ground_truth->poses);
+  }
+  s.ate_inlier_optimum = absoluteTrajectoryError(result.estimate, reference.optimum.poses, log.dimension);
+  s.p50 = percentile(result.loop_update_ms, 50);
+  s.p95 = percentile(result.loop_update_ms, 95);
+  s.pmax = percentile(result.loop_update_ms, 100);
+  s.f50 = percentile(result.first_estimate_ms, 50);
+  s.f95 = percentile(result.first_estimate_ms, 95);
+  s.fmax = percentile(result.first_estimate_ms, 100);
+  return s;
+}
+
+// metrics.json (also printed with --quiet).
+std::string metricsJson(const Arguments& args, const IncrementalLog& log, const ReplayResult& result,
+                        const Reference& reference, const Summary& s) {
+  std::ostringstream json;
+  json << "{\n"
+       << "  \"dataset\": \"" << log.name << "\",\n"
+       << "  \"input\": \"" << std::filesystem::path(args.input).filename().string() << "\",\n"
+       << "  \"dimension\": " << log.dimension << ",\n"
+       << "  \"poses\": " << log.numPoses() << ",\n"
+       << "  \"loop_closures\": " << log.numLoopClosures() << ",\n"
+       << "  \"outliers\": " << log.numOutliers() << ",\n"
+       << "  \"outlier_percent\": " << jsonNumber(args.outliers < 0 ? NAN : args.outliers) << ",\n"
+       << "  \"seed\": " << args.seed << ",\n"
+       << "  \"outlier_mode\": \"" << toString(args.outlier_mode) << "\",\n"
+       << "  \"group_size\": " << (isGrouped(args.outlier_mode) ? std::to_string(args.group_size) : "null")
+       << ",\n"
+       << "  \"schedule\": \"" << toString(args.gnc.schedule.kind) << "\",\n"
+       << "  \"distance\": \"" << toString(args.gnc.schedule.distance) << "\",\n"
+       << "  \"classification\": \"" << toString(args.gnc.schedule.classification) << "\",\n"
+       << "  \"reset\": \"" << toString(args.gnc.schedule.reset) << "\",\n"
+       << "  \"local_window\": " << (args.gnc.window.local ? "true" : "false") << ",\n"
+       << "  \"max_window_poses\": " << args.gnc.window.max_poses << ",\n"
+       << "  \"runtime_s\": " << jsonNumber(result.runtime_s) << ",\n"
+       << "  \"solves\": " << result.solves << ",\n"
+       << "  \"gnc_steps\": " << result.gnc_steps << ",\n"
+       << "  \"mean_free_poses\": " << jsonNumber(result.mean_free_poses) << ",\n"
+       << "  \"solves_per_update_histogram\": [";
+  for (size_t k = 0; k < result.solves_per_update_histogram.size(); ++k)
+    json << (k ? ", " : "") << result.solves_per_update_histogram[k];
+  json << "],\n"
+       << "  \"precision\": " << jsonNumber(result.counts.precision()) << ",\n"
+       << "  \"recall\": " << jsonNumber(result.counts.recall()) << ",\n"
+       << "  \"true_positives\": " << result.counts.true_positive << ",\n"
+       << "  \"false_positives\": " << result.counts.false_positive << ",\n"
+       << "  \"false_negatives\": " << result.counts.false_negative << ",\n"
+       << "  \"ate_m\": " << jsonNumber(s.ate) << ",\n"
+       << "  \"rpe_m\": " << jsonNumber(s.rpe) << ",\n"
+       << "  \"ate_vs_inlier_optimum_m\": " << jsonNumber(s.ate_inlier_optimum) << ",\n"
+       << "  \"reference_chi2\": " << jsonNumber(reference.batch.chi2) << ",\n"
+       << "  \"reference_redundancy\": " << reference.redundancy << ",\n"
+       << "  \"reference_chi2_per_redundancy\": " << jsonNumber(reference.chi2_per_redundancy) << ",\n"
+       << "  \"reference_start\": \"" << toString(reference.batch.best) << "\",\n"
+       << "  \"reference_start_chi2\": {" << reference.start_json << "},\n"
+       << "  \"update_ms_p50\": " << jsonNumber(s.p50) << ",\n"
+       << "  \"update_ms_p95\": " << jsonNumber(s.p95) << ",\n"
+       << "  \"update_ms_max\": " << jsonNumber(s.pmax) << ",\n"
+       << "  \"first_estimate_ms_p50\": " << jsonNumber(s.f50) << ",\n"
+       << "  \"first_estimate_ms_p95\": " << jsonNumber(s.f95) << ",\n"
+       << "  \"first_estimate_ms_max\": " << jsonNumber(s.fmax) << ",\n"
+       << "  \"peak_rss_mb\": " << jsonNumber(peakRssMb()) << "\n"
+       << "}\n";
+  return json.str();
+}
+
+// The human-readable report (without --quiet).
+void printReport(const Arguments& args, const IncrementalLog& log, const ReplayResult& result,
+                 const Reference& reference, const Summary& s, bool has_ground_truth) {
+  std::printf("%-28s %s (%dD), %d poses, %d loop closures (%d outliers)\n", "input:", log.name.c_str(),
+              log.dimension, log.numPoses(), log.numLoopClosures(), log.numOutliers());
+  std::printf("%-28s %s\n", "schedule:", toString(args.gnc.schedule.kind).c_str());
+  std::printf("%-28s %.3f s (%ld solves, %ld GNC steps, %.0f free poses per solve)\n", "runtime:",
+              result.runtime_s, result.solves, result.gnc_steps, result.mean_free_poses);
+  std::printf("%-28s %.2f / %.2f / %.2f ms\n", "loop update p50/p95/max:", s.p50, s.p95, s.pmax);
+  std::printf("%-28s %.2f / %.2f / %.2f ms\n", "first estimate p50/p95/max:", s.f50, s.f95, s.fmax);
+  std::printf("%-28s %.4f (TP %d, FP %d)\n", "precision:", result.counts.precision(),
+              result.counts.true_positive, result.counts.false_positive);
+  std::printf("%-28s %.4f (FN %d)\n", "recall:", result.counts.recall(), result.counts.false_negative);
+  if (has_ground_truth) std::printf("%-28s %.4f m / %.4f m\n", "ATE / RPE vs ground truth:", s.ate, s.rpe);
+  std::printf("%-28s %.4f m\n", "ATE vs outlier-free optimum:", s.ate_inlier_optimum);
+  std::printf("%-28s chi2 %.7g from the %s start (%s)\n", "outlier-free optimum:", reference.batch.chi2,
+              toString(reference.batch.best).c_str(), reference.start_text.c_str());
+  if (reference.redundancy > 0)
+    std::printf("%-28s %.4g (redundancy %ld; about 1 when the stated covariances match the noise)\n",
+                "  chi2 per redundancy:", reference.chi2_per_redundancy, reference.redundancy);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -242,119 +393,13 @@ int main(int argc, char** argv) {
       throw std::invalid_argument("ground truth has " + std::to_string(ground_truth->poses.size()) +
                                   " poses, the input " + std::to_string(log.numPoses()));
 
-    ReplayOptions options;
-    options.gnc = args.gnc;
-    auto last_print = std::chrono::steady_clock::now();
-    if (!args.quiet) {
-      options.progress = [&last_print](size_t done, size_t total) {
-        const auto now = std::chrono::steady_clock::now();
-        if (now - last_print < std::chrono::seconds(1) && done != total) return;
-        last_print = now;
-        std::cerr << "\r  replay " << done << "/" << total << " entries" << (done == total ? "\n" : "")
-                  << std::flush;
-      };
-    }
-    const ReplayResult result = replay(log, options);
-
-    // Reference estimate: the outlier-free least-squares optimum, the lowest
-    // of Levenberg-Marquardt from the odometry, the global initialisation and
-    // the ground truth (LM from the odometry alone can end in a local minimum).
-    PoseGraph inlier_optimum = graphFromLog(log);
-    BatchOptions batch;
-    batch.skip_outliers = true;
-    const GlobalBatchResult reference =
-        optimizeBatchGlobal(&inlier_optimum, batch, ground_truth ? &ground_truth->poses : nullptr);
-    std::ostringstream start_json, start_text;  // every start's chi2, so that a bad reference shows
-    for (const BatchStartResult& s : reference.starts) {
-      const char* separator = &s == &reference.starts.front() ? "" : ", ";
-      start_json << separator << '"' << toString(s.start) << "\": " << jsonNumber(s.chi2);
-      start_text << separator << toString(s.start) << ' ' << (s.error.empty() ? jsonNumber(s.chi2) : s.error);
-    }
-
-    const double ate = ground_truth ? absoluteTrajectoryError(result.estimate, ground_truth->poses, log.dimension)
-                                    : NAN;
-    const double rpe = ground_truth ? relativePoseError(result.estimate, ground_truth->poses) : NAN;
-    const double ate_inlier_optimum =
-        absoluteTrajectoryError(result.estimate, inlier_optimum.poses, log.dimension);
-    const double p50 = percentile(result.loop_update_ms, 50), p95 = percentile(result.loop_update_ms, 95),
-                 pmax = percentile(result.loop_update_ms, 100);
-    const double f50 = percentile(result.first_estimate_ms, 50), f95 = percentile(result.first_estimate_ms, 95),
-                 fmax = percentile(result.first_estimate_ms, 100);
-
-    const long redundancy = outlierFreeRedundancy(log);
-    const double chi2_per_redundancy = redundancy > 0 ? reference.chi2 / static_cast<double>(redundancy) : NAN;
-    std::ostringstream json;
-    json << "{\n"
-         << "  \"dataset\": \"" << log.name << "\",\n"
-         << "  \"input\": \"" << std::filesystem::path(args.input).filename().string() << "\",\n"
-         << "  \"dimension\": " << log.dimension << ",\n"
-         << "  \"poses\": " << log.numPoses() << ",\n"
-         << "  \"loop_closures\": " << log.numLoopClosures() << ",\n"
-         << "  \"outliers\": " << log.numOutliers() << ",\n"
-         << "  \"outlier_percent\": " << jsonNumber(args.outliers < 0 ? NAN : args.outliers) << ",\n"
-         << "  \"seed\": " << args.seed << ",\n"
-         << "  \"outlier_mode\": \"" << toString(args.outlier_mode) << "\",\n"
-         << "  \"group_size\": " << (isGrouped(args.outlier_mode) ? std::to_string(args.group_size) : "null")
-         << ",\n"
-         << "  \"schedule\": \"" << toString(args.gnc.schedule.kind) << "\",\n"
-         << "  \"distance\": \"" << toString(args.gnc.schedule.distance) << "\",\n"
-         << "  \"classification\": \"" << toString(args.gnc.schedule.classification) << "\",\n"
-         << "  \"reset\": \"" << toString(args.gnc.schedule.reset) << "\",\n"
-         << "  \"local_window\": " << (args.gnc.window.local ? "true" : "false") << ",\n"
-         << "  \"max_window_poses\": " << args.gnc.window.max_poses << ",\n"
-         << "  \"runtime_s\": " << jsonNumber(result.runtime_s) << ",\n"
-         << "  \"solves\": " << result.solves << ",\n"
-         << "  \"gnc_steps\": " << result.gnc_steps << ",\n"
-         << "  \"mean_free_poses\": " << jsonNumber(result.mean_free_poses) << ",\n"
-         << "  \"solves_per_update_histogram\": [";
-    for (size_t k = 0; k < result.solves_per_update_histogram.size(); ++k)
-      json << (k ? ", " : "") << result.solves_per_update_histogram[k];
-    json << "],\n"
-         << "  \"precision\": " << jsonNumber(result.counts.precision()) << ",\n"
-         << "  \"recall\": " << jsonNumber(result.counts.recall()) << ",\n"
-         << "  \"true_positives\": " << result.counts.true_positive << ",\n"
-         << "  \"false_positives\": " << result.counts.false_positive << ",\n"
-         << "  \"false_negatives\": " << result.counts.false_negative << ",\n"
-         << "  \"ate_m\": " << jsonNumber(ate) << ",\n"
-         << "  \"rpe_m\": " << jsonNumber(rpe) << ",\n"
-         << "  \"ate_vs_inlier_optimum_m\": " << jsonNumber(ate_inlier_optimum) << ",\n"
-         << "  \"reference_chi2\": " << jsonNumber(reference.chi2) << ",\n"
-         << "  \"reference_redundancy\": " << redundancy << ",\n"
-         << "  \"reference_chi2_per_redundancy\": " << jsonNumber(chi2_per_redundancy) << ",\n"
-         << "  \"reference_start\": \"" << toString(reference.best) << "\",\n"
-         << "  \"reference_start_chi2\": {" << start_json.str() << "},\n"
-         << "  \"update_ms_p50\": " << jsonNumber(p50) << ",\n"
-         << "  \"update_ms_p95\": " << jsonNumber(p95) << ",\n"
-         << "  \"update_ms_max\": " << jsonNumber(pmax) << ",\n"
-         << "  \"first_estimate_ms_p50\": " << jsonNumber(f50) << ",\n"
-         << "  \"first_estimate_ms_p95\": " << jsonNumber(f95) << ",\n"
-         << "  \"first_estimate_ms_max\": " << jsonNumber(fmax) << ",\n"
-         << "  \"peak_rss_mb\": " << jsonNumber(peakRssMb()) << "\n"
-         << "}\n";
-
-    if (!args.output.empty()) writeOutputs(args.output, json.str(), log, result, inlier_optimum);
-
-    if (!args.quiet) {
-      std::printf("%-28s %s (%dD), %d poses, %d loop closures (%d outliers)\n", "input:", log.name.c_str(),
-                  log.dimension, log.numPoses(), log.numLoopClosures(), log.numOutliers());
-      std::printf("%-28s %s\n", "schedule:", toString(args.gnc.schedule.kind).c_str());
-      std::printf("%-28s %.3f s (%ld solves, %ld GNC steps, %.0f free poses per solve)\n", "runtime:",
-                  result.runtime_s, result.solves, result.gnc_steps, result.mean_free_poses);
-      std::printf("%-28s %.2f / %.2f / %.2f ms\n", "loop update p50/p95/max:", p50, p95, pmax);
-      std::printf("%-28s %.2f / %.2f / %.2f ms\n", "first estimate p50/p95/max:", f50, f95, fmax);
-      std::printf("%-28s %.4f (TP %d, FP %d)\n", "precision:", result.counts.precision(),
-                  result.counts.true_positive, result.counts.false_positive);
-      std::printf("%-28s %.4f (FN %d)\n", "recall:", result.counts.recall(), result.counts.false_negative);
-      if (ground_truth) std::printf("%-28s %.4f m / %.4f m\n", "ATE / RPE vs ground truth:", ate, rpe);
-      std::printf("%-28s %.4f m\n", "ATE vs outlier-free optimum:", ate_inlier_optimum);
-      std::printf("%-28s chi2 %.7g from the %s start (%s)\n", "outlier-free optimum:", reference.chi2,
-                  toString(reference.best).c_str(), start_text.str().c_str());
-      if (redundancy > 0)
-        std::printf("%-28s %.4g (redundancy %ld; about 1 when the stated covariances match the noise)\n",
-                    "  chi2 per redundancy:", chi2_per_redundancy, redundancy);
-    } else {
-      std::cout << json.str();
-    }
+    const ReplayResult result = runReplay(log, args);
+    const Reference reference = computeReference(log, ground_truth.get());
+    const Summary summary = summarize(log, result, ground_truth.get(), reference);
+    const std::string json = metricsJson(args, log, result, reference, summary);
+    if (!args.output.empty()) writeOutputs(args.output, json, log, result, reference.optimum);
+    if (args.quiet) std::cout << json;
+    else printReport(args, log, result, reference, summary, ground_truth != nullptr);
     return 0;
   } catch (const std::exception& e) {
     std::cerr << "agnc_pgo_replay: " << e.what() << "\n";
