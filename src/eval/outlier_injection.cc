@@ -128,6 +128,134 @@ Edge outlierEdge(int from, int to, const Pose& measurement, const Eigen::MatrixX
   return edge;
 }
 
+// What placing the outliers of one graph shares: the reference poses they
+// must contradict, their information, the random draws (one generator, in
+// the order riSAM's protocol draws, so that a seed keeps its outliers), how
+// many are wanted and where they may go, and the edges they are added to.
+struct Placement {
+  const PoseGraph& graph;
+  const PoseGraph& reference;
+  Eigen::MatrixXd information;
+  double gate;  // chi-square q(0.95) of the tangent dimension
+  std::mt19937_64 rng;
+  int wanted;
+  int min_separation, max_separation;  // of the two endpoints, in poses
+  long long total_pairs;               // pose pairs at an allowed separation
+  std::vector<Edge>* edges;
+
+  // An outlier measurement that the true relative pose explains within the
+  // 95 % gate would be a true loop, not an outlier. The gate compares the
+  // Mahalanobis distance r (not r^2) with the quantile, as the reference
+  // implementations' tests do (ALGORITHM.md §1, §3), so that every injected
+  // outlier is an outlier under the engine's default classification too.
+  bool contradictsTruth(int i, int j, const Pose& measurement) const {
+    const Eigen::VectorXd error =
+        relativePoseError(graph.dimension, reference.poses[i], reference.poses[j], measurement);
+    return std::sqrt(error.dot(information * error)) >= gate;
+  }
+};
+
+// One identity-pose outlier per drawn pair (i, j), i > j: `draw` returns the
+// next pair, or false for a draw that is no pair at all. Every pair decided,
+// accepted or rejected, is kept: a rejected pair would be rejected again, so
+// skipping it does not change which pairs are chosen; it only makes "every
+// pair tried" detectable instead of looping forever.
+template <typename Draw>
+void placeSingle(Placement* p, Draw draw, const char* kind) {
+  std::set<std::pair<int, int>> decided;
+  int added = 0;
+  while (added < p->wanted) {
+    int i = 0, j = 0;
+    if (!draw(&i, &j)) continue;
+    if (!decided.insert({i, j}).second) {
+      if (static_cast<long long>(decided.size()) == p->total_pairs) {
+        throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
+                                 std::to_string(p->wanted) + kind + " outliers are inconsistent with the reference");
+      }
+      continue;
+    }
+    if (!p->contradictsTruth(i, j, Pose::identity())) continue;
+    p->edges->push_back(outlierEdge(i, j, Pose::identity(), p->information));
+    ++added;
+  }
+}
+
+// riSAM's protocol: two poses drawn uniformly, kept if i - j >= 2.
+void placeRandom(Placement* p) {
+  std::uniform_int_distribution<int> draw_pose(0, static_cast<int>(p->graph.poses.size()) - 1);
+  placeSingle(
+      p,
+      [&](int* i, int* j) {
+        *i = draw_pose(p->rng);
+        *j = draw_pose(p->rng);
+        return *i - *j >= 2;  // enforces i > j and |i - j| >= 2
+      },
+      "");
+}
+
+// Newer endpoint i in [min, N - 1], separation d in [min, min(max, i)].
+void placeLocal(Placement* p) {
+  std::uniform_int_distribution<int> draw_newer(p->min_separation, static_cast<int>(p->graph.poses.size()) - 1);
+  placeSingle(
+      p,
+      [&](int* i, int* j) {
+        *i = draw_newer(p->rng);
+        std::uniform_int_distribution<int> draw_separation(p->min_separation, std::min(p->max_separation, *i));
+        *j = *i - draw_separation(p->rng);
+        return true;
+      },
+      " local");
+}
+
+// Groups of `group_size` consecutive pose pairs (i + k, j + k) sharing one
+// random wrong measurement; a group is placed whole or drawn again.
+void placeGroups(Placement* p, bool local, int group_size) {
+  const int num_poses = static_cast<int>(p->graph.poses.size());
+  const double radius = typicalLoopLength(p->graph);
+  std::set<std::pair<int, int>> used;
+  int added = 0, failed_draws = 0;
+  while (added < p->wanted) {
+    const int size = std::min(group_size, p->wanted - added);
+    // The group's newest pair is (i + size - 1, j + size - 1): i <= N - size.
+    const int last_start = num_poses - size;
+    if (last_start < p->min_separation) {
+      throw std::invalid_argument("injectOutliers: " + std::to_string(num_poses) + " poses cannot hold a group of " +
+                                  std::to_string(size) + " outliers " + std::to_string(p->min_separation) +
+                                  " or more poses apart");
+    }
+    int i = 0, j = 0;
+    if (local) {
+      std::uniform_int_distribution<int> draw_newer(p->min_separation, last_start);
+      i = draw_newer(p->rng);
+      std::uniform_int_distribution<int> draw_separation(p->min_separation, std::min(p->max_separation, i));
+      j = i - draw_separation(p->rng);
+    } else {
+      std::uniform_int_distribution<int> draw_pose(0, last_start);
+      i = draw_pose(p->rng);
+      j = draw_pose(p->rng);
+    }
+    const Pose measurement = randomMeasurement(p->graph.dimension, radius, p->rng);
+    bool accepted = i - j >= 2;
+    for (int k = 0; accepted && k < size; ++k) {
+      accepted = !used.count({i + k, j + k}) && p->contradictsTruth(i + k, j + k, measurement);
+    }
+    if (!accepted) {
+      if (++failed_draws == kMaxFailedGroupDraws) {
+        throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
+                                 std::to_string(p->wanted) + " grouped outliers placed; " +
+                                 std::to_string(kMaxFailedGroupDraws) + " draws of the next group in a row failed");
+      }
+      continue;
+    }
+    failed_draws = 0;
+    for (int k = 0; k < size; ++k) {
+      used.insert({i + k, j + k});
+      p->edges->push_back(outlierEdge(i + k, j + k, measurement, p->information));
+    }
+    added += size;
+  }
+}
+
 }  // namespace
 
 Eigen::VectorXd defaultOutlierCovariance(const std::string& dataset_name, int dimension) {
@@ -223,125 +351,25 @@ PoseGraph injectOutliers(const PoseGraph& graph, const PoseGraph& reference, con
     throw std::invalid_argument("injectOutliers: need at least 3 poses to place outliers");
   }
   const bool local = isLocal(options.mode);
-  const int min_separation = local ? options.local_min_separation : 2;
-  const int max_separation = local ? options.local_max_separation : num_poses - 1;
-  const long long total_pairs =
-      local ? localPairCount(num_poses, min_separation, max_separation) : candidatePairCount(num_poses);
-  if (num_outliers > total_pairs) {
+  Placement placement{graph, reference, {}, {}, std::mt19937_64(options.seed), num_outliers,
+                      local ? options.local_min_separation : 2,
+                      local ? options.local_max_separation : num_poses - 1, 0, &result.edges};
+  placement.total_pairs = local ? localPairCount(num_poses, placement.min_separation, placement.max_separation)
+                                : candidatePairCount(num_poses);
+  if (num_outliers > placement.total_pairs) {
     throw std::invalid_argument("injectOutliers: " + std::to_string(num_outliers) + " outliers requested but only " +
-                                std::to_string(total_pairs) + " pose pairs" +
+                                std::to_string(placement.total_pairs) + " pose pairs" +
                                 (local ? " at the local separation" : ""));
   }
-
   const Eigen::VectorXd covariance = outlierCovariance(graph, dataset_name, options);
-  const Eigen::MatrixXd information = covariance.cwiseInverse().asDiagonal();
-  const int dof = graph.tangentDimension();
-  const double threshold = chiSquareQuantile(dof, 0.95);
-  // An outlier measurement that the true relative pose explains within the
-  // 95 % gate would be a true loop, not an outlier. The gate compares the
-  // Mahalanobis distance r (not r^2) with the quantile, as the reference
-  // implementations' tests do (ALGORITHM.md §1, §3), so that every injected
-  // outlier is an outlier under the engine's default classification too.
-  auto contradictsTruth = [&](int i, int j, const Pose& measurement) {
-    const Eigen::VectorXd error =
-        relativePoseError(graph.dimension, reference.poses[i], reference.poses[j], measurement);
-    return std::sqrt(error.dot(information * error)) >= threshold;
-  };
+  placement.information = covariance.cwiseInverse().asDiagonal();
+  placement.gate = chiSquareQuantile(graph.tangentDimension(), 0.95);
 
-  std::mt19937_64 rng(options.seed);
-  int added = 0;
-
-  if (options.mode == OutlierMode::kRandom) {
-    // The draws of riSAM's protocol; kept exactly so that existing seeds give
-    // the same outliers.
-    std::uniform_int_distribution<int> draw_pose(0, num_poses - 1);
-    // Every pair decided so far, accepted or rejected. A rejected pair would be
-    // rejected again, so skipping it does not change which pairs are chosen;
-    // it only makes "every pair tried" detectable instead of looping forever.
-    std::set<std::pair<int, int>> decided;
-    while (added < num_outliers) {
-      const int i = draw_pose(rng);
-      const int j = draw_pose(rng);
-      if (i - j < 2) continue;  // enforces i > j and |i - j| >= 2
-      if (!decided.insert({i, j}).second) {
-        if (static_cast<long long>(decided.size()) == total_pairs) {
-          throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
-                                   std::to_string(num_outliers) + " outliers are inconsistent with the reference");
-        }
-        continue;
-      }
-      if (!contradictsTruth(i, j, Pose::identity())) continue;
-      result.edges.push_back(outlierEdge(i, j, Pose::identity(), information));
-      ++added;
-    }
-    return result;
-  }
-
-  if (options.mode == OutlierMode::kLocal) {
-    // Newer endpoint i in [min, N - 1], separation d in [min, min(max, i)].
-    std::uniform_int_distribution<int> draw_newer(min_separation, num_poses - 1);
-    std::set<std::pair<int, int>> decided;  // as in kRandom
-    while (added < num_outliers) {
-      const int i = draw_newer(rng);
-      std::uniform_int_distribution<int> draw_separation(min_separation, std::min(max_separation, i));
-      const int j = i - draw_separation(rng);
-      if (!decided.insert({i, j}).second) {
-        if (static_cast<long long>(decided.size()) == total_pairs) {
-          throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
-                                   std::to_string(num_outliers) + " local outliers are inconsistent with the reference");
-        }
-        continue;
-      }
-      if (!contradictsTruth(i, j, Pose::identity())) continue;
-      result.edges.push_back(outlierEdge(i, j, Pose::identity(), information));
-      ++added;
-    }
-    return result;
-  }
-
-  // Grouped modes.
-  const double radius = typicalLoopLength(graph);
-  std::set<std::pair<int, int>> used;
-  int failed_draws = 0;
-  while (added < num_outliers) {
-    const int size = std::min(options.group_size, num_outliers - added);
-    // The group's newest pair is (i + size - 1, j + size - 1): i <= N - size.
-    const int last_start = num_poses - size;
-    if (last_start < min_separation) {
-      throw std::invalid_argument("injectOutliers: " + std::to_string(num_poses) + " poses cannot hold a group of " +
-                                  std::to_string(size) + " outliers " + std::to_string(min_separation) +
-                                  " or more poses apart");
-    }
-    int i = 0, j = 0;
-    if (local) {
-      std::uniform_int_distribution<int> draw_newer(min_separation, last_start);
-      i = draw_newer(rng);
-      std::uniform_int_distribution<int> draw_separation(min_separation, std::min(max_separation, i));
-      j = i - draw_separation(rng);
-    } else {
-      std::uniform_int_distribution<int> draw_pose(0, last_start);
-      i = draw_pose(rng);
-      j = draw_pose(rng);
-    }
-    const Pose measurement = randomMeasurement(graph.dimension, radius, rng);
-    bool accepted = i - j >= 2;
-    for (int k = 0; accepted && k < size; ++k) {
-      accepted = !used.count({i + k, j + k}) && contradictsTruth(i + k, j + k, measurement);
-    }
-    if (!accepted) {
-      if (++failed_draws == kMaxFailedGroupDraws) {
-        throw std::runtime_error("injectOutliers: only " + std::to_string(added) + " of " +
-                                 std::to_string(num_outliers) + " grouped outliers placed; " +
-                                 std::to_string(kMaxFailedGroupDraws) + " draws of the next group in a row failed");
-      }
-      continue;
-    }
-    failed_draws = 0;
-    for (int k = 0; k < size; ++k) {
-      used.insert({i + k, j + k});
-      result.edges.push_back(outlierEdge(i + k, j + k, measurement, information));
-    }
-    added += size;
+  switch (options.mode) {
+    case OutlierMode::kRandom: placeRandom(&placement); break;
+    case OutlierMode::kLocal: placeLocal(&placement); break;
+    case OutlierMode::kRandomGrouped:
+    case OutlierMode::kLocalGrouped: placeGroups(&placement, local, options.group_size); break;
   }
   return result;
 }
