@@ -241,34 +241,55 @@ double SparsePoseGraphSolver::windowCost() const {
 }
 
 void SparsePoseGraphSolver::buildStructure(int first) {
-  const int d = tangent_;
   const int nv = numPoses() - first;
-  auto var = [first](int id) { return id >= first ? id - first : -1; };
+  collectSlots(first);
+  orderVariables(nv);
+  const std::vector<std::vector<int>> rows = upperBlockRows(nv);
+  allocateHessian(rows);
+  gradient_.resize(static_cast<long>(nv) * tangent_);
+  factor_valid_ = false;
+  model_known_ = false;
+  if (supernodal_) {
+    keepCholmodSerial();
+    decompositions_->supernodal.analyzePattern(hessian_);
+  } else {
+    decompositions_->simplicial.analyzePattern(hessian_);
+  }
+  structure_first_ = first;
+  structure_poses_ = numPoses();
+  structure_factors_ = numFactors();
+  built_version_ = structure_version_;
+}
 
-  // The factors that touch a variable, and the block pattern they make.
+void SparsePoseGraphSolver::collectSlots(int first) {
+  // The factors that touch a variable (pose >= first), their endpoints as
+  // variables (pose - first) until orderVariables() maps them to rows.
+  auto var = [first](int id) { return id >= first ? id - first : -1; };
   slots_.clear();
-  std::vector<Eigen::Triplet<double>> pattern;
-  pattern.reserve(nv + numFactors());
-  for (int v = 0; v < nv; ++v) pattern.emplace_back(v, v, 1.0);
   for (int k = 0; k < numFactors(); ++k) {
     const Factor& f = factors_[k];
     if (f.mode == FactorMode::kDisabled || f.dormant) continue;
     const int va = f.a == kAnchor ? -1 : var(f.a);
     const int vb = var(f.b);
     if (va < 0 && vb < 0) continue;
-    const bool coupled = va >= 0 && vb >= 0;
-    if (coupled) pattern.emplace_back(std::max(va, vb), std::min(va, vb), 1.0);
-    slots_.push_back(FactorSlot{k, va, vb, coupled, 0, 0, 0, 0, -1, 0});
+    slots_.push_back(FactorSlot{k, va, vb, va >= 0 && vb >= 0, 0, 0, 0, 0, -1, 0});
   }
+}
 
+void SparsePoseGraphSolver::orderVariables(int nv) {
   // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
   // block row of variable v in the permuted Hessian. CHOLMOD (SE(3)) orders
   // the scalar pattern itself, so there the variables keep their order.
-  supernodal_ = d == 6;
+  supernodal_ = tangent_ == 6;
   position_.resize(nv);
   if (supernodal_) {
     for (int v = 0; v < nv; ++v) position_[v] = v;
   } else {
+    std::vector<Eigen::Triplet<double>> pattern;
+    pattern.reserve(nv + slots_.size());
+    for (int v = 0; v < nv; ++v) pattern.emplace_back(v, v, 1.0);
+    for (const FactorSlot& s : slots_)
+      if (s.coupled) pattern.emplace_back(std::max(s.ia, s.ib), std::min(s.ia, s.ib), 1.0);
     Eigen::SparseMatrix<double> lower(nv, nv);
     lower.setFromTriplets(pattern.begin(), pattern.end());
     Eigen::SparseMatrix<double> blocks;
@@ -281,19 +302,30 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     if (s.ia >= 0) s.ia = position_[s.ia];
     if (s.ib >= 0) s.ib = position_[s.ib];
   }
+}
 
+std::vector<std::vector<int>> SparsePoseGraphSolver::upperBlockRows(int nv) const {
   // Block rows I <= J present in each block column J (the upper triangle,
   // which the simplicial Cholesky factorises in place, without a copy).
   std::vector<std::vector<int>> rows(nv);
   for (int j = 0; j < nv; ++j) rows[j].push_back(j);
   for (const FactorSlot& s : slots_)
     if (s.coupled) rows[std::max(s.ia, s.ib)].push_back(std::min(s.ia, s.ib));
-  std::vector<long> column_start(nv + 1, 0);
-  for (int j = 0; j < nv; ++j) {
-    std::sort(rows[j].begin(), rows[j].end());
-    rows[j].erase(std::unique(rows[j].begin(), rows[j].end()), rows[j].end());
-    column_start[j + 1] = column_start[j] + static_cast<long>(rows[j].size()) * d * d;
+  for (std::vector<int>& column : rows) {
+    std::sort(column.begin(), column.end());
+    column.erase(std::unique(column.begin(), column.end()), column.end());
   }
+  return rows;
+}
+
+void SparsePoseGraphSolver::allocateHessian(const std::vector<std::vector<int>>& rows) {
+  // Dense d x d blocks, column-major within each block column, and where
+  // each slot's blocks live in it.
+  const int d = tangent_;
+  const int nv = static_cast<int>(rows.size());
+  std::vector<long> column_start(nv + 1, 0);
+  for (int j = 0; j < nv; ++j)
+    column_start[j + 1] = column_start[j] + static_cast<long>(rows[j].size()) * d * d;
 
   const long n = static_cast<long>(nv) * d;
   hessian_ = Eigen::SparseMatrix<double>(n, n);
@@ -323,20 +355,6 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     if (s.ib >= 0) locate(s.ib, s.ib, &s.base_bb, &s.stride_bb);
     if (s.coupled) locate(std::min(s.ia, s.ib), std::max(s.ia, s.ib), &s.base_ab, &s.stride_ab);
   }
-  gradient_.resize(n);
-  factor_valid_ = false;
-  model_known_ = false;
-  if (supernodal_) {
-    keepCholmodSerial();
-    decompositions_->supernodal.analyzePattern(hessian_);
-  } else {
-    decompositions_->simplicial.analyzePattern(hessian_);
-  }
-
-  structure_first_ = first;
-  structure_poses_ = numPoses();
-  structure_factors_ = numFactors();
-  built_version_ = structure_version_;
 }
 
 template <int D>

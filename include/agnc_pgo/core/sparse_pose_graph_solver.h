@@ -243,6 +243,13 @@ class SparsePoseGraphSolver {
   };
 
   void buildStructure(int first_variable);
+  // buildStructure()'s steps: the window's factors (slots_), their block
+  // order (position_), the upper block pattern per block column, and the
+  // Hessian's storage with each slot's offsets in it.
+  void collectSlots(int first_variable);
+  void orderVariables(int variables);
+  std::vector<std::vector<int>> upperBlockRows(int variables) const;
+  void allocateHessian(const std::vector<std::vector<int>>& rows);
   // Assembles the normal equations at the current estimate (tangent size D)
   // and returns the robust cost of the window.
   template <int D>
