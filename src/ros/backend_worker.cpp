@@ -178,81 +178,86 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
   bool changed = false;  // keyframes or (paused) loop closures added
   for (Item& item : *batch) {
     switch (item.kind) {
-      case Item::Kind::kOdometry: {
-        bool keyframe = false;
-        const std::string warning = graph_.addOdometry(item.odometry, &keyframe);
-        if (!warning.empty()) {
-          {
-            std::lock_guard<std::mutex> lock(counters_mutex_);
-            ++counters_.rejected_odometry;
-          }
-          warn("rejected odometry: " + warning);
-        }
-        if (keyframe) {
-          const int id = graph_.numNodes() - 1;
-          output_->publishKeyframe(id, graph_.stamps()[id], graph_.engine()->pose(id));
-        }
-        changed |= keyframe;
-        break;
-      }
-      case Item::Kind::kLoopClosure: {
-        bool added = false;
-        const std::string warning = graph_.addLoopClosure(item.loop, &added);
-        if (!warning.empty()) {
-          {
-            std::lock_guard<std::mutex> lock(counters_mutex_);
-            ++counters_.rejected_loop_closures;
-          }
-          warn("rejected loop closure: " + warning);
-        }
-        if (added) {
-          pending_latency_.push_back(item.loop.received);
-          needs_update_ = true;
-          changed = true;
-        }
-        break;
-      }
-      case Item::Kind::kCommand: {
-        // Bring the graph up to date first so commands see every earlier message.
-        if (needs_update_ && !paused_) solve();
-        CommandResult result;
-        try {
-          result = item.command();
-        } catch (const std::exception& e) {
-          result = {false, e.what()};
-        }
-        item.result->set_value(result);
-        graph_dirty_ = true;
-        publish(true);
-        publishStatus();
-        break;
-      }
+      case Item::Kind::kOdometry: changed |= processOdometry(item.odometry); break;
+      case Item::Kind::kLoopClosure: changed |= processLoopClosure(item.loop); break;
+      case Item::Kind::kCommand: runCommand(&item); break;
     }
   }
-  // Held loop closures whose keyframes may have arrived; drop expired ones.
-  if (graph_.heldLoopClosures() > 0) {
-    std::vector<double> added;
-    for (const std::string& warning : graph_.retryHeld(now(), &added)) {
-      const bool dropped = warning.find("dropped") != std::string::npos;
-      {
-        std::lock_guard<std::mutex> lock(counters_mutex_);
-        ++counters_.rejected_loop_closures;
-        if (dropped) ++counters_.dropped_loop_closures;
-      }
-      warn((dropped ? "dropped loop closure: " : "rejected loop closure: ") + warning);
-    }
-    if (!added.empty()) {
-      pending_latency_.insert(pending_latency_.end(), added.begin(), added.end());
-      needs_update_ = true;
-      changed = true;
-    }
-  }
+  changed |= retryHeldLoopClosures();
   if (needs_update_ && !paused_) {
     solve();
   } else if (changed) {
     graph_dirty_ = true;
     publish(false);
   }
+}
+
+bool BackendWorker::processOdometry(const OdometryInput& odometry) {
+  bool keyframe = false;
+  const std::string warning = graph_.addOdometry(odometry, &keyframe);
+  if (!warning.empty()) {
+    {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      ++counters_.rejected_odometry;
+    }
+    warn("rejected odometry: " + warning);
+  }
+  if (keyframe) {
+    const int id = graph_.numNodes() - 1;
+    output_->publishKeyframe(id, graph_.stamps()[id], graph_.engine()->pose(id));
+  }
+  return keyframe;
+}
+
+bool BackendWorker::processLoopClosure(const LoopClosureInput& loop) {
+  bool added = false;
+  const std::string warning = graph_.addLoopClosure(loop, &added);
+  if (!warning.empty()) {
+    {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      ++counters_.rejected_loop_closures;
+    }
+    warn("rejected loop closure: " + warning);
+  }
+  if (added) {
+    pending_latency_.push_back(loop.received);
+    needs_update_ = true;
+  }
+  return added;
+}
+
+void BackendWorker::runCommand(Item* item) {
+  // Bring the graph up to date first so commands see every earlier message.
+  if (needs_update_ && !paused_) solve();
+  CommandResult result;
+  try {
+    result = item->command();
+  } catch (const std::exception& e) {
+    result = {false, e.what()};
+  }
+  item->result->set_value(result);
+  graph_dirty_ = true;
+  publish(true);
+  publishStatus();
+}
+
+bool BackendWorker::retryHeldLoopClosures() {
+  // Held loop closures whose keyframes may have arrived; drop expired ones.
+  if (graph_.heldLoopClosures() == 0) return false;
+  std::vector<double> added;
+  for (const std::string& warning : graph_.retryHeld(now(), &added)) {
+    const bool dropped = warning.find("dropped") != std::string::npos;
+    {
+      std::lock_guard<std::mutex> lock(counters_mutex_);
+      ++counters_.rejected_loop_closures;
+      if (dropped) ++counters_.dropped_loop_closures;
+    }
+    warn((dropped ? "dropped loop closure: " : "rejected loop closure: ") + warning);
+  }
+  if (added.empty()) return false;
+  pending_latency_.insert(pending_latency_.end(), added.begin(), added.end());
+  needs_update_ = true;
+  return true;
 }
 
 void BackendWorker::solve() {

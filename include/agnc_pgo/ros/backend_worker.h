@@ -98,6 +98,12 @@ class BackendWorker {
   void push(Item item);
   void run();
   void processBatch(std::deque<Item>* batch);
+  // processBatch()'s steps; each returns whether it added to the graph
+  // (a keyframe, a loop closure), warning about and counting what it rejected.
+  bool processOdometry(const OdometryInput& odometry);
+  bool processLoopClosure(const LoopClosureInput& loop);
+  void runCommand(Item* item);
+  bool retryHeldLoopClosures();
   void solve();
   void publish(bool force_graph);
   // The anytime first estimate of an update (~path, map -> odom).
