@@ -195,13 +195,7 @@ void BackendWorker::processBatch(std::deque<Item>* batch) {
 bool BackendWorker::processOdometry(const OdometryInput& odometry) {
   bool keyframe = false;
   const std::string warning = graph_.addOdometry(odometry, &keyframe);
-  if (!warning.empty()) {
-    {
-      std::lock_guard<std::mutex> lock(counters_mutex_);
-      ++counters_.rejected_odometry;
-    }
-    warn("rejected odometry: " + warning);
-  }
+  if (!warning.empty()) reject(&Counters::rejected_odometry, "rejected odometry: " + warning);
   if (keyframe) {
     const int id = graph_.numNodes() - 1;
     output_->publishKeyframe(id, graph_.stamps()[id], graph_.engine()->pose(id));
@@ -212,18 +206,20 @@ bool BackendWorker::processOdometry(const OdometryInput& odometry) {
 bool BackendWorker::processLoopClosure(const LoopClosureInput& loop) {
   bool added = false;
   const std::string warning = graph_.addLoopClosure(loop, &added);
-  if (!warning.empty()) {
-    {
-      std::lock_guard<std::mutex> lock(counters_mutex_);
-      ++counters_.rejected_loop_closures;
-    }
-    warn("rejected loop closure: " + warning);
-  }
+  if (!warning.empty()) reject(&Counters::rejected_loop_closures, "rejected loop closure: " + warning);
   if (added) {
     pending_latency_.push_back(loop.received);
     needs_update_ = true;
   }
   return added;
+}
+
+void BackendWorker::reject(unsigned Counters::*counter, const std::string& message) {
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++(counters_.*counter);
+  }
+  warn(message);
 }
 
 void BackendWorker::runCommand(Item* item) {

@@ -104,6 +104,8 @@ class BackendWorker {
   bool processLoopClosure(const LoopClosureInput& loop);
   void runCommand(Item* item);
   bool retryHeldLoopClosures();
+  // Counts a rejected message in `counter` and warns (throttled) why.
+  void reject(unsigned Counters::*counter, const std::string& message);
   void solve();
   void publish(bool force_graph);
   // The anytime first estimate of an update (~path, map -> odom).
