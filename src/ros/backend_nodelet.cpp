@@ -49,6 +49,14 @@ void BackendNodelet::shutdownHandles() {
 }
 
 void BackendNodelet::start() {
+  readAndLogParameters();
+  advertiseOutputs();
+  startWorker();
+  connectInputs();
+  startReconfigureServers();
+}
+
+void BackendNodelet::readAndLogParameters() {
   ros::NodeHandle& pnh = getPrivateNodeHandle();
   std::vector<std::string> unknown;
   try {
@@ -64,7 +72,10 @@ void BackendNodelet::start() {
   style_.frame = parameters_.map_frame;
   style_.node_scale = parameters_.marker_node_scale;
   style_.line_width = parameters_.marker_line_width;
+}
 
+void BackendNodelet::advertiseOutputs() {
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
   path_publisher_ = pnh.advertise<nav_msgs::Path>("path", 1, /*latch=*/true);
   marker_publisher_ = pnh.advertise<visualization_msgs::MarkerArray>("markers", 1, true);
   if (parameters_.publish_pose_graph)
@@ -72,18 +83,22 @@ void BackendNodelet::start() {
   status_publisher_ = pnh.advertise<agnc_pgo::GraphStatus>("status", 10, true);
   keyframe_publisher_ = pnh.advertise<agnc_pgo::Keyframe>("keyframes", 100);
   broadcaster_ = std::make_unique<tf2_ros::TransformBroadcaster>();
+}
 
+void BackendNodelet::startWorker() {
   worker_ = std::make_unique<BackendWorker>(parameters_, this);
   worker_->start();
-  if (!parameters_.initial_graph.empty()) {
-    const CommandResult loaded = worker_->loadGraph(parameters_.initial_graph);
-    if (!loaded.success) {
-      NODELET_FATAL_STREAM("agnc_pgo: ~initial_graph: " << loaded.message << ", not starting");
-      throw std::runtime_error("agnc_pgo: ~initial_graph: " + loaded.message);
-    }
-    NODELET_INFO_STREAM("agnc_pgo: ~initial_graph: " << loaded.message);
+  if (parameters_.initial_graph.empty()) return;
+  const CommandResult loaded = worker_->loadGraph(parameters_.initial_graph);
+  if (!loaded.success) {
+    NODELET_FATAL_STREAM("agnc_pgo: ~initial_graph: " << loaded.message << ", not starting");
+    throw std::runtime_error("agnc_pgo: ~initial_graph: " + loaded.message);
   }
+  NODELET_INFO_STREAM("agnc_pgo: ~initial_graph: " << loaded.message);
+}
 
+void BackendNodelet::connectInputs() {
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
   odometry_subscriber_ = pnh.subscribe("odom", parameters_.queue_size, &BackendNodelet::odometryCallback, this,
                                        ros::TransportHints().tcpNoDelay());
   loop_closure_subscriber_ = pnh.subscribe("loop_closures", parameters_.queue_size,
@@ -102,9 +117,12 @@ void BackendNodelet::start() {
       mt.advertiseService("set_loop_closure_status", &BackendNodelet::setLoopClosureStatus, this));
   tf_timer_ = pnh.createWallTimer(ros::WallDuration(1.0 / parameters_.tf_rate), &BackendNodelet::tfTimerCallback,
                                   this);
+}
 
+void BackendNodelet::startReconfigureServers() {
   // Runtime parameters: the servers start from the validated start-up values
   // (not the .cfg defaults), then take requests on this node's queue.
+  ros::NodeHandle& pnh = getPrivateNodeHandle();
   boost::recursive_mutex::scoped_lock lock(reconfigure_mutex_);
   backend_server_ = std::make_unique<dynamic_reconfigure::Server<agnc_pgo::BackendConfig>>(reconfigure_mutex_, pnh);
   backend_server_->updateConfig(toConfig<agnc_pgo::BackendConfig>(current_, ""));

@@ -45,6 +45,14 @@ class BackendNodelet : public nodelet::Nodelet, public BackendOutput {
  private:
   void onInit() override;
   void start();            // onInit's work; throws if the back-end cannot start
+  // start()'s steps, in order: parameters (validated, logged), publishers,
+  // the worker (and ~initial_graph), subscriptions, services and the tf
+  // timer, then the dynamic_reconfigure servers.
+  void readAndLogParameters();
+  void advertiseOutputs();
+  void startWorker();
+  void connectInputs();
+  void startReconfigureServers();
   void shutdownHandles();  // stops the worker, releases every ROS handle
 
   void odometryCallback(const nav_msgs::Odometry::ConstPtr& message);
