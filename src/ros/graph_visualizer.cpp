@@ -48,6 +48,72 @@ visualization_msgs::Marker lineList(const std::string& ns, int id, const Visuali
   return m;
 }
 
+visualization_msgs::Marker nodeMarker(const GraphSnapshot& snapshot, const VisualizerStyle& style) {
+  visualization_msgs::Marker nodes;
+  nodes.header.frame_id = style.frame;
+  nodes.ns = kNodesNamespace;
+  nodes.type = visualization_msgs::Marker::POINTS;
+  nodes.action = visualization_msgs::Marker::ADD;
+  nodes.pose.orientation.w = 1.0;
+  nodes.scale.x = nodes.scale.y = style.node_scale;
+  nodes.color = color(0.2f, 0.4f, 1.0f);
+  for (const SnapshotNode& n : snapshot.nodes) nodes.points.push_back(point(n.pose));
+  return nodes;
+}
+
+// One line list per kind of edge.
+struct EdgeMarkers {
+  visualization_msgs::Marker odometry, inliers, outliers, graduating;
+};
+
+void addEdges(const GraphSnapshot& snapshot, EdgeMarkers* markers) {
+  for (const SnapshotEdge& e : snapshot.edges) {
+    if (e.type == SnapshotEdgeType::kPrior) continue;
+    const geometry_msgs::Point a = point(snapshot.nodes[e.from].pose), b = point(snapshot.nodes[e.to].pose);
+    visualization_msgs::Marker* target = &markers->odometry;
+    if (e.type == SnapshotEdgeType::kLoopClosure)
+      target = e.graduating ? &markers->graduating : (e.inlier ? &markers->inliers : &markers->outliers);
+    target->points.push_back(a);
+    target->points.push_back(b);
+    if (target == &markers->graduating) {
+      // Shaded by weight: 1 -> yellow-green, 0 -> orange-red.
+      const float w = static_cast<float>(std::min(1.0, std::max(0.0, e.weight)));
+      const std_msgs::ColorRGBA c = color(1.0f, 0.3f + 0.6f * w, 0.0f, 0.9f);
+      markers->graduating.colors.push_back(c);
+      markers->graduating.colors.push_back(c);
+    }
+  }
+}
+
+// The counts, above the graph's bounding box.
+visualization_msgs::Marker statusText(const GraphSnapshot& snapshot, const VisualizerStyle& style,
+                                      const EdgeMarkers& edges) {
+  visualization_msgs::Marker text;
+  text.header.frame_id = style.frame;
+  text.ns = kStatusNamespace;
+  text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
+  text.action = visualization_msgs::Marker::ADD;
+  text.pose.orientation.w = 1.0;
+  text.color = color(0.0f, 0.0f, 0.0f);
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
+  for (const SnapshotNode& n : snapshot.nodes) {
+    lo = lo.cwiseMin(n.pose.translation);
+    hi = hi.cwiseMax(n.pose.translation);
+  }
+  if (snapshot.nodes.empty()) lo = hi = Eigen::Vector3d::Zero();
+  const double size = std::max(5.0, (hi - lo).head<2>().maxCoeff());
+  text.scale.z = 0.04 * size;
+  text.pose.position.x = 0.5 * (lo.x() + hi.x());
+  text.pose.position.y = hi.y() + 0.06 * size;
+  text.pose.position.z = hi.z();
+  const size_t inliers = edges.inliers.points.size() / 2, outliers = edges.outliers.points.size() / 2,
+               graduating = edges.graduating.points.size() / 2;
+  text.text = std::to_string(snapshot.nodes.size()) + " nodes | " + std::to_string(inliers + outliers + graduating) +
+              " loop closures: " + std::to_string(inliers) + " inliers (green), " + std::to_string(outliers) +
+              " outliers (red), " + std::to_string(graduating) + " graduating";
+  return text;
+}
+
 }  // namespace
 
 nav_msgs::Path makePath(const GraphSnapshot& snapshot, const std::string& frame) {
@@ -65,70 +131,16 @@ nav_msgs::Path makePath(const GraphSnapshot& snapshot, const std::string& frame)
 
 visualization_msgs::MarkerArray makeMarkers(const GraphSnapshot& snapshot, const VisualizerStyle& style) {
   const ros::Time stamp;  // time 0: rviz uses the latest transform
-  visualization_msgs::Marker nodes;
-  nodes.header.frame_id = style.frame;
-  nodes.ns = kNodesNamespace;
-  nodes.type = visualization_msgs::Marker::POINTS;
-  nodes.action = visualization_msgs::Marker::ADD;
-  nodes.pose.orientation.w = 1.0;
-  nodes.scale.x = nodes.scale.y = style.node_scale;
-  nodes.color = color(0.2f, 0.4f, 1.0f);
-  for (const SnapshotNode& n : snapshot.nodes) nodes.points.push_back(point(n.pose));
-
-  visualization_msgs::Marker odometry =
-      lineList(kOdometryNamespace, 0, style, style.line_width * 0.5, color(0.6f, 0.6f, 0.6f, 0.8f), stamp);
-  visualization_msgs::Marker inliers =
-      lineList(kInlierNamespace, 0, style, style.line_width, color(0.0f, 0.8f, 0.0f, 0.8f), stamp);
-  visualization_msgs::Marker outliers =
-      lineList(kOutlierNamespace, 0, style, style.line_width * 1.5, color(1.0f, 0.0f, 0.0f, 0.9f), stamp);
-  visualization_msgs::Marker graduating =
-      lineList(kGraduatingNamespace, 0, style, style.line_width, color(1.0f, 0.8f, 0.0f), stamp);
-
-  for (const SnapshotEdge& e : snapshot.edges) {
-    if (e.type == SnapshotEdgeType::kPrior) continue;
-    const geometry_msgs::Point a = point(snapshot.nodes[e.from].pose), b = point(snapshot.nodes[e.to].pose);
-    visualization_msgs::Marker* target = &odometry;
-    if (e.type == SnapshotEdgeType::kLoopClosure)
-      target = e.graduating ? &graduating : (e.inlier ? &inliers : &outliers);
-    target->points.push_back(a);
-    target->points.push_back(b);
-    if (target == &graduating) {
-      // Shaded by weight: 1 -> yellow-green, 0 -> orange-red.
-      const float w = static_cast<float>(std::min(1.0, std::max(0.0, e.weight)));
-      const std_msgs::ColorRGBA c = color(1.0f, 0.3f + 0.6f * w, 0.0f, 0.9f);
-      graduating.colors.push_back(c);
-      graduating.colors.push_back(c);
-    }
-  }
-  // Status text above the graph's bounding box.
-  visualization_msgs::Marker text;
-  text.header.frame_id = style.frame;
-  text.ns = kStatusNamespace;
-  text.type = visualization_msgs::Marker::TEXT_VIEW_FACING;
-  text.action = visualization_msgs::Marker::ADD;
-  text.pose.orientation.w = 1.0;
-  text.color = color(0.0f, 0.0f, 0.0f);
-  {
-    Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e300), hi = -lo;
-    for (const SnapshotNode& n : snapshot.nodes) {
-      lo = lo.cwiseMin(n.pose.translation);
-      hi = hi.cwiseMax(n.pose.translation);
-    }
-    if (snapshot.nodes.empty()) lo = hi = Eigen::Vector3d::Zero();
-    const double size = std::max(5.0, (hi - lo).head<2>().maxCoeff());
-    text.scale.z = 0.04 * size;
-    text.pose.position.x = 0.5 * (lo.x() + hi.x());
-    text.pose.position.y = hi.y() + 0.06 * size;
-    text.pose.position.z = hi.z();
-    const size_t loops = (inliers.points.size() + outliers.points.size() + graduating.points.size()) / 2;
-    text.text = std::to_string(snapshot.nodes.size()) + " nodes | " + std::to_string(loops) + " loop closures: " +
-                std::to_string(inliers.points.size() / 2) + " inliers (green), " +
-                std::to_string(outliers.points.size() / 2) + " outliers (red), " +
-                std::to_string(graduating.points.size() / 2) + " graduating";
-  }
+  visualization_msgs::Marker nodes = nodeMarker(snapshot, style);
+  EdgeMarkers edges{
+      lineList(kOdometryNamespace, 0, style, style.line_width * 0.5, color(0.6f, 0.6f, 0.6f, 0.8f), stamp),
+      lineList(kInlierNamespace, 0, style, style.line_width, color(0.0f, 0.8f, 0.0f, 0.8f), stamp),
+      lineList(kOutlierNamespace, 0, style, style.line_width * 1.5, color(1.0f, 0.0f, 0.0f, 0.9f), stamp),
+      lineList(kGraduatingNamespace, 0, style, style.line_width, color(1.0f, 0.8f, 0.0f), stamp)};
+  addEdges(snapshot, &edges);
   visualization_msgs::MarkerArray array;
-  array.markers.push_back(text);
-  for (visualization_msgs::Marker* m : {&nodes, &odometry, &inliers, &outliers, &graduating}) {
+  array.markers.push_back(statusText(snapshot, style, edges));
+  for (visualization_msgs::Marker* m : {&nodes, &edges.odometry, &edges.inliers, &edges.outliers, &edges.graduating}) {
     // An empty LINE_LIST is not drawn: DELETE keeps rviz from showing stale lines.
     if (m->points.empty()) m->action = visualization_msgs::Marker::DELETE;
     array.markers.push_back(*m);
