@@ -644,11 +644,29 @@ SparsePoseGraphSolver::PathSearch SparsePoseGraphSolver::pathSearch(const std::v
   search.via.assign(blocks_.size(), -1);
   search.visit.assign(blocks_.size(), 0);
   search.done.assign(blocks_.size(), 0);
+  // Lengths are found lazily, so the span bound takes every factor a path
+  // may cross: weights are at most 1, so a factor counts at least 1 and no
+  // step of a path covers more than longest_span per unit of length.
+  for (size_t k = 0; k < factors_.size(); ++k) {
+    const Factor& f = factors_[k];
+    if (f.a == kAnchor || f.dormant || f.mode == FactorMode::kDisabled || std::isinf(search.factor_length[k])) continue;
+    search.longest_span = std::max(search.longest_span, positionDistance(f.a, f.b));
+  }
   return search;
 }
 
+double SparsePoseGraphSolver::positionDistance(int a, int b) const {
+  const int n = dimension_;  // the position comes first in a block
+  double squared = 0.0;
+  for (int i = 0; i < n; ++i) squared += (blocks_[a][i] - blocks_[b][i]) * (blocks_[a][i] - blocks_[b][i]);
+  return std::sqrt(squared);
+}
+
 std::vector<int> SparsePoseGraphSolver::findShortestPath(PathSearch* search, int from, int to) const {
-  // Dijkstra from `from`, stopping at `to`.
+  // A* from `from`, stopping at `to` (see shortestPath). Poses added after
+  // pathSearch() join through factors that were not there when the span
+  // bound was taken: those may exceed it, so the search is then Dijkstra's.
+  const bool bounded = search->longest_span > 0.0 && search->factor_length.size() == factors_.size();
   const int poses = numPoses();
   if (static_cast<int>(search->reached.size()) < poses) {
     search->reached.resize(poses);
@@ -671,11 +689,13 @@ std::vector<int> SparsePoseGraphSolver::findShortestPath(PathSearch* search, int
     }
     return length;
   };
-  using Entry = std::pair<double, int>;
+  const double inverse_span = bounded ? 1.0 / search->longest_span : 0.0;
+  auto remaining = [&](int p) { return inverse_span * positionDistance(p, to); };
+  using Entry = std::pair<double, int>;  // reached + remaining, pose
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
   search->visit[from] = id;
   search->reached[from] = 0.0;
-  queue.push({0.0, from});
+  queue.push({remaining(from), from});
   while (!queue.empty()) {
     const int p = queue.top().second;
     queue.pop();
@@ -691,7 +711,7 @@ std::vector<int> SparsePoseGraphSolver::findShortestPath(PathSearch* search, int
       search->visit[q] = id;
       search->reached[q] = length;
       search->via[q] = k;
-      queue.push({length, q});
+      queue.push({length + remaining(q), q});
     }
   }
   std::vector<int> path;

@@ -341,29 +341,34 @@ TEST(SparsePoseGraphSolver, ShortestPathTakesFullWeightShortcuts) {
     EXPECT_EQ(solver.findShortestPath(&search, from, to), solver.shortestPath(from, to, {judged})) << from << " " << to;
 }
 
-// The search finds a shortest path between any two poses: on a random graph
-// (a broken chain, loop closures of many weights, some dormant, disabled or
-// judged) its length is that of Dijkstra's search from one end, and it
-// joins the endpoints; none where they are not joined.
-TEST(SparsePoseGraphSolver, ShortestPathIsAsShortAsDijkstrasFromOneEnd) {
+static void expectShortestPathsOfRandomGraph(bool plane) {
   SparsePoseGraphSolver solver(2);
   std::mt19937 rng(7);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const int n = 120;
-  for (int i = 0; i < n; ++i) solver.addPose(Pose::fromSE2(i, 0, 0));
+  // On the plane, rows of 12 poses 1 m apart, every other row walked back.
+  const int row = 12;
+  const auto position = [&](int i) {
+    if (!plane) return Eigen::Vector2d(i, 0);
+    const int r = i / row, c = r % 2 == 0 ? i % row : row - 1 - i % row;
+    return Eigen::Vector2d(c, r);
+  };
+  for (int i = 0; i < n; ++i) solver.addPose(Pose::fromSE2(position(i).x(), position(i).y(), 0));
   const Eigen::Matrix3d information = 100.0 * Eigen::Matrix3d::Identity();
   std::vector<std::pair<int, int>> ends;  // per factor
   for (int i = 1; i < n; ++i) {
     if (i == n - 10) continue;  // the last ten poses join the rest only by loop closures
-    solver.addFactor(i - 1, i, Pose::fromSE2(1, 0, 0), information, FactorMode::kPlain);
+    const Eigen::Vector2d d = position(i) - position(i - 1);
+    solver.addFactor(i - 1, i, Pose::fromSE2(d.x(), d.y(), 0), information, FactorMode::kPlain);
     ends.emplace_back(i - 1, i);
   }
   std::vector<int> judged, dormant;
-  for (int k = 0; k < 150; ++k) {
+  for (int k = 0; k < (plane ? 3000 : 150); ++k) {
     const int a = static_cast<int>(unit(rng) * n), b = static_cast<int>(unit(rng) * n);
-    if (a == b) continue;
+    if (a == b || (plane && (position(a) - position(b)).norm() > 1.5)) continue;
     // Off by up to 0.3 m (3 sigma): kernel weights from 1 down to ~0.
-    const int f = solver.addFactor(a, b, Pose::fromSE2(b - a + 0.3 * unit(rng), 0, 0), information,
+    const Eigen::Vector2d d = position(b) - position(a);
+    const int f = solver.addFactor(a, b, Pose::fromSE2(d.x() + 0.3 * unit(rng), d.y(), 0), information,
                                    FactorMode::kRobust);
     ends.emplace_back(a, b);
     solver.setMu(f, unit(rng));
@@ -430,6 +435,21 @@ TEST(SparsePoseGraphSolver, ShortestPathIsAsShortAsDijkstrasFromOneEnd) {
   // Both kinds of pairs were drawn.
   EXPECT_GT(joined, 20);
   EXPECT_GT(apart, 0);
+}
+
+// The search finds a shortest path between any two poses: on a random graph
+// (a broken chain, loop closures of many weights, some dormant, disabled or
+// judged) its length is that of Dijkstra's search from one end, and it
+// joins the endpoints; none where they are not joined. Two layouts: a
+// straight chain with loop closures between any two poses (A*'s distance
+// bound is loose: a factor may span the map), and a chain that sweeps a
+// plane row by row with loop closures between neighbouring rows only (the
+// bound is tight: the search is led towards the goal).
+TEST(SparsePoseGraphSolver, ShortestPathIsAsShortAsDijkstrasFromOneEnd) {
+  for (const bool plane : {false, true}) {
+    SCOPED_TRACE(plane ? "plane" : "line");
+    expectShortestPathsOfRandomGraph(plane);
+  }
 }
 
 // The map has more than any one path: its covariance of a factor lies

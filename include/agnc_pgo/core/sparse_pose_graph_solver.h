@@ -196,6 +196,12 @@ class SparsePoseGraphSolver {
   // The factors of the path from pose `from` to pose `to` that crosses the
   // fewest full-weight factors (a factor of kernel weight w counts 1/w),
   // over the factors predict() linearises but `without`; empty if none.
+  // Found by A*: no factor counts less than 1 nor spans more than the
+  // longest factor a path may cross, so the straight-line distance to `to`
+  // over that span never overestimates what is left of a path (a consistent
+  // heuristic), and the search expands the poses between the endpoints
+  // instead of every pose nearer to `from` than `to` is -- most of the map
+  // for a far loop closure.
   std::vector<int> shortestPath(int from, int to, const std::vector<int>& without) const;
   // What many findShortestPath() searches at one estimate share: each factor's
   // length, found once, and scratch space reused between searches. Valid
@@ -208,6 +214,9 @@ class SparsePoseGraphSolver {
     std::vector<unsigned> visit;  // per pose, the search that last reached it
     std::vector<unsigned> done;   // per pose, the search that last expanded it
     unsigned search = 0;
+    // The longest distance between the endpoints of a factor a path may
+    // cross, at this estimate (A*'s heuristic divides by it).
+    double longest_span = 0.0;
   };
   PathSearch pathSearch(const std::vector<int>& without) const;
   std::vector<int> findShortestPath(PathSearch* search, int from, int to) const;
@@ -320,6 +329,8 @@ class SparsePoseGraphSolver {
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
   void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;
+  // Distance between the positions of two poses at the current estimate.
+  double positionDistance(int a, int b) const;
   const double* blockOf(int id) const { return id == kAnchor ? anchor_.data() : blocks_[id].data(); }
 
   int dimension_;
