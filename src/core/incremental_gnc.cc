@@ -542,9 +542,8 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
     log_volume[i] = logChanceVolume(extent, e.information);
     if (stillRuledOut(index, judged_sorted, variance_factor, log_volume[i])) continue;
     if (!paths) paths = std::make_unique<SparsePoseGraphSolver::PathSearch>(solver_.pathSearch(factors));
-    std::vector<int> path = solver_.findShortestPath(paths.get(), olderEnd(e), newerEnd(e));
-    const SparsePoseGraphSolver::Prediction along_path = solver_.predictAlongPath(factors[i], path, variance_factor);
-    if (logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume[i]) <= 0.0) {
+    std::vector<int> path = rulingOutPath(index, paths.get(), judged_sorted, variance_factor, log_volume[i]);
+    if (!path.empty()) {
       paths_ruled_out_[index] = std::move(path);
       continue;
     }
@@ -562,6 +561,33 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
     explained[undecided[k]] = logPredictionOdds(p.residual, p.covariance, log_volume[undecided[k]]) > 0.0;
   }
   return explained;
+}
+
+std::vector<int> IncrementalGnc::rulingOutPath(int index, SparsePoseGraphSolver::PathSearch* paths,
+                                               const std::vector<int>& judged_sorted, double variance_factor,
+                                               double log_volume) {
+  const LoopClosure& loop = loops_[index];
+  const int older = olderEnd(loop.edge), newer = newerEnd(loop.edge);
+  const auto rulesOut = [&](const std::vector<int>& path) {
+    for (int k : path)
+      if (std::binary_search(judged_sorted.begin(), judged_sorted.end(), k)) return false;
+    const SparsePoseGraphSolver::Prediction along_path = solver_.predictAlongPath(loop.factor, path, variance_factor);
+    return logPredictionOddsBound(along_path.residual, along_path.covariance, variance_factor, log_volume) <= 0.0;
+  };
+  if (path_tree_.root >= 0 && older != path_tree_.root) {
+    std::vector<int> path = solver_.pathToRoot(path_tree_, older);
+    if (!path.empty()) {
+      const std::vector<int> onwards = solver_.findShortestPath(paths, path_tree_.root, newer);
+      if (!onwards.empty() || newer == path_tree_.root) {
+        path.insert(path.end(), onwards.begin(), onwards.end());
+        if (rulesOut(path)) return path;
+      }
+    }
+  }
+  std::vector<int> path = solver_.findShortestPath(paths, older, newer);
+  if (!rulesOut(path)) return {};
+  path_tree_ = solver_.pathTree(paths, newer);
+  return path;
 }
 
 bool IncrementalGnc::stillRuledOut(int index, const std::vector<int>& judged_sorted, double variance_factor,

@@ -663,10 +663,44 @@ double SparsePoseGraphSolver::positionDistance(int a, int b) const {
 }
 
 std::vector<int> SparsePoseGraphSolver::findShortestPath(PathSearch* search, int from, int to) const {
+  const unsigned id = runSearch(search, from, to);
+  std::vector<int> path;
+  if (search->visit[to] != id) return path;
+  for (int p = to; p != from;) {
+    const Factor& f = factors_[search->via[p]];
+    path.push_back(search->via[p]);
+    p = f.a == p ? f.b : f.a;
+  }
+  std::reverse(path.begin(), path.end());
+  return path;
+}
+
+SparsePoseGraphSolver::PathTree SparsePoseGraphSolver::pathTree(PathSearch* search, int root) const {
+  const unsigned id = runSearch(search, root, -1);
+  PathTree tree;
+  tree.root = root;
+  tree.toward_root.assign(blocks_.size(), -1);
+  for (int p = 0; p < numPoses(); ++p)
+    if (search->visit[p] == id && p != root) tree.toward_root[p] = search->via[p];
+  return tree;
+}
+
+std::vector<int> SparsePoseGraphSolver::pathToRoot(const PathTree& tree, int from) const {
+  std::vector<int> path;
+  if (from >= static_cast<int>(tree.toward_root.size())) return path;
+  for (int p = from; tree.toward_root[p] >= 0;) {
+    const Factor& f = factors_[tree.toward_root[p]];
+    path.push_back(tree.toward_root[p]);
+    p = f.a == p ? f.b : f.a;
+  }
+  return path;
+}
+
+unsigned SparsePoseGraphSolver::runSearch(PathSearch* search, int from, int to) const {
   // A* from `from`, stopping at `to` (see shortestPath). Poses added after
   // pathSearch() join through factors that were not there when the span
   // bound was taken: those may exceed it, so the search is then Dijkstra's.
-  const bool bounded = search->longest_span > 0.0 && search->factor_length.size() == factors_.size();
+  const bool bounded = to >= 0 && search->longest_span > 0.0 && search->factor_length.size() == factors_.size();
   const int poses = numPoses();
   if (static_cast<int>(search->reached.size()) < poses) {
     search->reached.resize(poses);
@@ -690,7 +724,7 @@ std::vector<int> SparsePoseGraphSolver::findShortestPath(PathSearch* search, int
     return length;
   };
   const double inverse_span = bounded ? 1.0 / search->longest_span : 0.0;
-  auto remaining = [&](int p) { return inverse_span * positionDistance(p, to); };
+  auto remaining = [&](int p) { return bounded ? inverse_span * positionDistance(p, to) : 0.0; };
   using Entry = std::pair<double, int>;  // reached + remaining, pose
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
   search->visit[from] = id;
@@ -714,15 +748,7 @@ std::vector<int> SparsePoseGraphSolver::findShortestPath(PathSearch* search, int
       queue.push({length + remaining(q), q});
     }
   }
-  std::vector<int> path;
-  if (reached(to) == std::numeric_limits<double>::infinity()) return path;
-  for (int p = to; p != from;) {
-    const Factor& f = factors_[search->via[p]];
-    path.push_back(search->via[p]);
-    p = f.a == p ? f.b : f.a;
-  }
-  std::reverse(path.begin(), path.end());
-  return path;
+  return id;
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::relativeCovariance(const Eigen::MatrixXd& jt, long first_row) {

@@ -393,11 +393,8 @@ static void expectShortestPathsOfRandomGraph(bool plane) {
     const double w = solver.weight(k);
     return w > 0.0 ? 1.0 / w : HUGE_VAL;
   };
-  SparsePoseGraphSolver::PathSearch search = solver.pathSearch(judged);
-  int joined = 0, apart = 0;
-  for (int trial = 0; trial < 80; ++trial) {
-    const int from = static_cast<int>(unit(rng) * poses), to = static_cast<int>(unit(rng) * poses);
-    // Reference: Dijkstra from `from` on a dense table, every factor relaxed.
+  // Reference: Dijkstra from `from` on a dense table, every factor relaxed.
+  const auto distancesFrom = [&](int from) {
     std::vector<double> best(poses, HUGE_VAL);
     std::vector<bool> done(poses, false);
     best[from] = 0.0;
@@ -414,6 +411,41 @@ static void expectShortestPathsOfRandomGraph(bool plane) {
         best[q] = std::min(best[q], best[p] + length(static_cast<int>(k)));
       }
     }
+    return best;
+  };
+  // The length of a path from `from`, or NaN if it breaks or ends elsewhere than `to`.
+  const auto pathLength = [&](const std::vector<int>& path, int from, int to) {
+    double total = 0.0;
+    int at = from;
+    for (int k : path) {
+      if (ends[k].first != at && ends[k].second != at) return std::nan("");
+      at = ends[k].first == at ? ends[k].second : ends[k].first;
+      total += length(k);
+    }
+    return at == to ? total : std::nan("");
+  };
+  SparsePoseGraphSolver::PathSearch search = solver.pathSearch(judged);
+  // A tree of shortest paths to one root: every pose it reaches has a path
+  // as short as Dijkstra's, the others none.
+  for (const int root : {0, n - 1, n / 2}) {
+    const std::vector<double> best = distancesFrom(root);
+    const SparsePoseGraphSolver::PathTree tree = solver.pathTree(&search, root);
+    EXPECT_EQ(tree.root, root);
+    EXPECT_TRUE(solver.pathToRoot(tree, root).empty());
+    for (int p = 0; p < poses; ++p) {
+      if (p == root) continue;
+      const std::vector<int> path = solver.pathToRoot(tree, p);
+      if (best[p] == HUGE_VAL) {
+        EXPECT_TRUE(path.empty()) << p;
+        continue;
+      }
+      EXPECT_NEAR(pathLength(path, p, root), best[p], 1e-9 * (1.0 + best[p])) << p << " -> " << root;
+    }
+  }
+  int joined = 0, apart = 0;
+  for (int trial = 0; trial < 80; ++trial) {
+    const int from = static_cast<int>(unit(rng) * poses), to = static_cast<int>(unit(rng) * poses);
+    const std::vector<double> best = distancesFrom(from);
     const std::vector<int> path = solver.findShortestPath(&search, from, to);
     EXPECT_EQ(path, solver.shortestPath(from, to, judged));
     if (best[to] == HUGE_VAL) {
@@ -422,15 +454,7 @@ static void expectShortestPathsOfRandomGraph(bool plane) {
       continue;
     }
     ++joined;
-    double total = 0.0;
-    int at = from;
-    for (int k : path) {
-      ASSERT_TRUE(ends[k].first == at || ends[k].second == at) << "the path breaks at pose " << at;
-      at = ends[k].first == at ? ends[k].second : ends[k].first;
-      total += length(k);
-    }
-    EXPECT_EQ(at, to);
-    EXPECT_NEAR(total, best[to], 1e-9 * (1.0 + best[to])) << from << " -> " << to;
+    EXPECT_NEAR(pathLength(path, from, to), best[to], 1e-9 * (1.0 + best[to])) << from << " -> " << to;
   }
   // Both kinds of pairs were drawn.
   EXPECT_GT(joined, 20);
@@ -440,7 +464,8 @@ static void expectShortestPathsOfRandomGraph(bool plane) {
 // The search finds a shortest path between any two poses: on a random graph
 // (a broken chain, loop closures of many weights, some dormant, disabled or
 // judged) its length is that of Dijkstra's search from one end, and it
-// joins the endpoints; none where they are not joined. Two layouts: a
+// joins the endpoints; none where they are not joined. So is every path of
+// a tree of shortest paths to one pose (pathTree). Two layouts: a
 // straight chain with loop closures between any two poses (A*'s distance
 // bound is loose: a factor may span the map), and a chain that sweeps a
 // plane row by row with loop closures between neighbouring rows only (the

@@ -221,6 +221,13 @@ class IncrementalGnc {
   // with it, dormant or of no weight) and its bound on the map's odds <= 0.
   bool stillRuledOut(int index, const std::vector<int>& judged_sorted, double variance_factor,
                      double log_volume) const;
+  // A path of the map between the loop closure's endpoints whose bound on
+  // the map's odds is <= 0, or empty if none was found: first the kept
+  // tree's path to its root continued to the newer endpoint, then the
+  // shortest path (which, if it rules the loop closure out where the tree's
+  // did not, becomes the new tree's).
+  std::vector<int> rulingOutPath(int index, SparsePoseGraphSolver::PathSearch* paths,
+                                 const std::vector<int>& judged_sorted, double variance_factor, double log_volume);
   void planWindow(UpdatePlan* plan) const;
   void selectGraduating(UpdatePlan* plan);
   // The GNC steps and the settle iterations of a pass on its window.
@@ -268,6 +275,14 @@ class IncrementalGnc {
   // map's prediction from above, so a bound <= 0 on it decides as the
   // prediction would; only where it no longer does is the map searched.
   std::unordered_map<int, std::vector<int>> paths_ruled_out_;
+  // Shortest paths to the newer endpoint of a far loop closure that one of
+  // them ruled out, kept for the next ones: most far loop closures end at
+  // the newest pose, and a kept path to where the newest pose was, continued
+  // by a short search from there, is a path too. A search from the older
+  // endpoint would expand most of the map for each random outlier; the tree
+  // is searched again only when its path no longer rules out a loop closure
+  // that a fresh shortest path does (rulingOutPath).
+  SparsePoseGraphSolver::PathTree path_tree_;
   double unrefined_step_ = 0.0;  // window displacements since the last whole-graph refinement
   long total_iterations_ = 0;
   long total_gnc_steps_ = 0;

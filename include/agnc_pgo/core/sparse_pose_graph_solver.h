@@ -220,6 +220,19 @@ class SparsePoseGraphSolver {
   };
   PathSearch pathSearch(const std::vector<int>& without) const;
   std::vector<int> findShortestPath(PathSearch* search, int from, int to) const;
+  // The shortest paths from every pose to one pose, the root (Dijkstra over
+  // the whole map): per pose, the first factor of its path, -1 at the root
+  // and where no path reaches. The paths stay paths when the map changes
+  // (any path bounds the map's prediction, predictAlongPath); one that
+  // crosses a factor since left out of the linear system predicts nothing.
+  struct PathTree {
+    int root = -1;
+    std::vector<int> toward_root;
+  };
+  PathTree pathTree(PathSearch* search, int root) const;
+  // The factors of the tree's path from `from` to its root, in that order;
+  // empty if the tree does not reach `from` (or `from` is the root).
+  std::vector<int> pathToRoot(const PathTree& tree, int from) const;
   // The a-posteriori variance of unit weight over the factors with an
   // endpoint >= first_variable but `without` (those being judged) and the
   // dormant ones, at the current estimate, as predict() uses for its
@@ -329,6 +342,10 @@ class SparsePoseGraphSolver {
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
   void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;
+  // Dijkstra's search from `from` with PathSearch's lengths, towards `to`
+  // by A* (see shortestPath), or over every pose it reaches if `to` is -1.
+  // Returns the search's id: the poses it reached have visit == id.
+  unsigned runSearch(PathSearch* search, int from, int to) const;
   // Distance between the positions of two poses at the current estimate.
   double positionDistance(int a, int b) const;
   const double* blockOf(int id) const { return id == kAnchor ? anchor_.data() : blocks_[id].data(); }
