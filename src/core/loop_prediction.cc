@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Cholesky>
@@ -45,7 +46,8 @@ double circularExtent(std::vector<double> angles) {
   if (angles.empty()) return 0.0;
   double low = std::numeric_limits<double>::infinity(), high = -low;
   for (double& a : angles) {
-    a = std::remainder(a, 2.0 * M_PI);
+    // remainder() returns an angle already in [-pi, pi] exactly as it is.
+    if (!(std::abs(a) <= M_PI)) a = std::remainder(a, 2.0 * M_PI);
     low = std::min(low, a);
     high = std::max(high, a);
   }
@@ -89,6 +91,7 @@ Eigen::VectorXd mapExtent(int dimension, const std::vector<PoseBlock>& blocks) {
   Eigen::VectorXd low = Eigen::VectorXd::Constant(dimension, std::numeric_limits<double>::infinity());
   Eigen::VectorXd high = -low;
   std::vector<std::vector<double>> angles(dimension == 2 ? 1 : 3);
+  for (int k = 0; k < (dimension == 2 ? 1 : 3); k += 2) angles[k].reserve(blocks.size());
   double pitch_low = M_PI, pitch_high = -M_PI;
   for (const PoseBlock& b : blocks) {
     const Eigen::Map<const Eigen::VectorXd> position(b.data(), dimension);
@@ -110,11 +113,11 @@ Eigen::VectorXd mapExtent(int dimension, const std::vector<PoseBlock>& blocks) {
   }
   extent.head(dimension) = high - low;
   if (dimension == 2) {
-    extent(2) = circularExtent(angles[0]);
+    extent(2) = circularExtent(std::move(angles[0]));
   } else {
-    extent(3) = circularExtent(angles[0]);
+    extent(3) = circularExtent(std::move(angles[0]));
     extent(4) = pitch_high - pitch_low;
-    extent(5) = circularExtent(angles[2]);
+    extent(5) = circularExtent(std::move(angles[2]));
   }
   return extent;
 }
