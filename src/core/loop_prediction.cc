@@ -90,8 +90,9 @@ Eigen::VectorXd mapExtent(int dimension, const std::vector<PoseBlock>& blocks) {
   if (blocks.empty()) return extent;
   Eigen::VectorXd low = Eigen::VectorXd::Constant(dimension, std::numeric_limits<double>::infinity());
   Eigen::VectorXd high = -low;
-  std::vector<std::vector<double>> angles(dimension == 2 ? 1 : 3);
-  for (int k = 0; k < (dimension == 2 ? 1 : 3); k += 2) angles[k].reserve(blocks.size());
+  std::vector<std::vector<double>> angles(dimension == 2 ? 1 : 3);  // heading; roll, -, yaw
+  angles[0].reserve(blocks.size());
+  if (dimension == 3) angles[2].reserve(blocks.size());
   double pitch_low = M_PI, pitch_high = -M_PI;
   for (const PoseBlock& b : blocks) {
     const Eigen::Map<const Eigen::VectorXd> position(b.data(), dimension);
