@@ -76,7 +76,9 @@ IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
     : dimension_(dimension),
       options_(options),
       schedule_(options.schedule, dimension == 2 ? 3 : 6),
-      solver_(dimension, options.schedule.shape_c) {
+      solver_(dimension, options.schedule.shape_c),
+      translation_noise_(dimension == 2 ? 2 : 3),
+      rotation_noise_(dimension == 2 ? 1 : 3) {
   validate(options_);
   solver_.setTrustRegion(options_.solver.trust_region, options_.solver.trust_region_radius,
                          options_.solver.max_trust_region_radius);
@@ -99,6 +101,7 @@ void IncrementalGnc::addPoseWithPrior(const Pose& value, const Eigen::MatrixXd& 
   const int id = solver_.addPose(value);
   solver_.addFactor(SparsePoseGraphSolver::kAnchor, id, value, information, FactorMode::kPlain);
   odometry_into_.push_back(-1);  // the start of a chain
+  dead_reckoning_.push_back(value);
 }
 
 void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {
@@ -121,7 +124,10 @@ void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {
 void IncrementalGnc::addOdometry(const Edge& edge) {
   validateEdge(edge, /*allow_new_pose=*/true);
   const bool new_pose = edge.to == numPoses();
-  if (new_pose) solver_.addPose(solver_.pose(edge.from) * edge.measurement);
+  if (new_pose) {
+    solver_.addPose(solver_.pose(edge.from) * edge.measurement);
+    dead_reckoning_.push_back(dead_reckoning_[edge.from] * edge.measurement);
+  }
   solver_.addFactor(edge.from, edge.to, edge.measurement, edge.information, FactorMode::kPlain);
   odometry_.push_back(edge);
   if (new_pose) odometry_into_.push_back(edge.from == edge.to - 1 ? static_cast<int>(odometry_.size()) - 1 : -1);
@@ -139,7 +145,92 @@ int IncrementalGnc::addLoopClosure(const Edge& edge) {
   if (static_cast<int>(loops_by_newer_pose_.size()) <= newer) loops_by_newer_pose_.resize(newer + 1);
   loops_by_newer_pose_[newer].push_back(index);
   pending_.push_back(index);
+  sampleNoise(index);
   return index;
+}
+
+StepCovariance IncrementalGnc::odometryStep() const {
+  return [this](int p) -> Eigen::MatrixXd {
+    const int index = odometry_into_[p];
+    return index < 0 ? Eigen::MatrixXd() : Eigen::MatrixXd(odometry_[index].information.inverse());
+  };
+}
+
+void IncrementalGnc::sampleNoise(int index) {
+  const int radius = options_.rejection.support_radius;
+  if (radius == 0 || options_.schedule.kind == ScheduleKind::kNone) return;
+  const Edge& e = loops_[index].edge;
+  // The segments between the endpoints as the odometry measured them: the
+  // estimate has already bent them towards the loop closures it kept.
+  const auto pose = [this](int id) { return dead_reckoning_[id]; };
+  const StepCovariance step = odometryStep();
+  const int t = dimension_ == 2 ? 2 : 3, r = dimension_ == 2 ? 1 : 3;
+  // One sample per loop closure: its most consistent earlier neighbour
+  // (noise_scale.h).
+  double translation = std::numeric_limits<double>::infinity(), rotation = translation;
+  int pairs = 0;
+  const int last = std::min(newerEnd(e) + radius, static_cast<int>(loops_by_newer_pose_.size()) - 1);
+  for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p)
+    for (int other : loops_by_newer_pose_[p]) {
+      Eigen::VectorXd error;
+      Eigen::MatrixXd covariance;
+      if (other == index || !areNeighbours(e, loops_[other].edge, radius) ||
+          !cycleError(dimension_, e, loops_[other].edge, pose, step, &error, &covariance))
+        continue;
+      // Each block on its own (marginal): a graph may state one too tight
+      // and the other right.
+      const Eigen::VectorXd et = error.head(t), er = error.tail(r);
+      ++pairs;
+      translation = std::min(translation, et.dot(covariance.topLeftCorner(t, t).ldlt().solve(et)));
+      rotation = std::min(rotation, er.dot(covariance.bottomRightCorner(r, r).ldlt().solve(er)));
+    }
+  translation_noise_.add(translation, pairs);
+  rotation_noise_.add(rotation, pairs);
+  if (translation_noise_.samples() < next_noise_estimate_) return;
+  while (next_noise_estimate_ <= translation_noise_.samples()) next_noise_estimate_ *= 2;
+  const Eigen::VectorXd& now = solver_.noiseScale();
+  const double widened_translation = std::max(now(0), translation_noise_.estimate());
+  const double widened_rotation = std::max(now(t), rotation_noise_.estimate());
+  if (widened_translation > now(0) || widened_rotation > now(t))
+    applyNoiseScale(widened_translation, widened_rotation);
+}
+
+void IncrementalGnc::applyNoiseScale(double translation, double rotation) {
+  std::vector<char> rejected(loops_.size());
+  for (size_t index = 0; index < loops_.size(); ++index) rejected[index] = !loops_[index].inlier;
+  const int t = dimension_ == 2 ? 2 : 3;
+  Eigen::VectorXd scale(solver_.noiseScale().size());
+  scale.head(t).setConstant(translation);
+  scale.tail(scale.size() - t).setConstant(rotation);
+  solver_.setNoiseScale(scale);
+  // The odds bounds of the paths that ruled loop closures out were of the
+  // narrower noise.
+  paths_ruled_out_.clear();
+  for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
+    LoopClosure& loop = loops_[index];
+    refresh(&loop);
+    // Judged again: those the narrower noise rejected and the wider one
+    // would keep at the estimate as it is. The others stand.
+    if (!rejected[index] || !loop.inlier || loop.override_mode != LoopOverride::kAuto ||
+        std::find(pending_.begin(), pending_.end(), index) != pending_.end())
+      continue;
+    loop.uncorroborated = false;
+    loop.undone = false;
+    loop.landed = false;
+    loop.graduation.init_step = 0;
+    loop.graduation.mu_init = 0.0;
+    pending_.push_back(index);
+  }
+}
+
+Eigen::MatrixXd IncrementalGnc::widenedInformation(const Eigen::MatrixXd& information) const {
+  const Eigen::VectorXd inverse_d = solver_.noiseScale().cwiseSqrt().cwiseInverse();
+  return inverse_d.asDiagonal() * information * inverse_d.asDiagonal();
+}
+
+Eigen::MatrixXd IncrementalGnc::widenedCovariance(const Eigen::MatrixXd& covariance) const {
+  const Eigen::VectorXd d = solver_.noiseScale().cwiseSqrt();
+  return d.asDiagonal() * covariance * d.asDiagonal();
 }
 
 FactorMode IncrementalGnc::robustMode() const {
@@ -531,6 +622,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   // for the shortest path between far endpoints expands most of the map.
   const double variance_factor = solver_.varianceFactor(first, factors);
   const Eigen::VectorXd extent = mapExtent(dimension_, solver_.blocks());
+  const bool widened = (solver_.noiseScale().array() != 1.0).any();
   std::vector<double> log_volume(loops.size());
   std::vector<int> undecided, undecided_factors;
   std::vector<int> judged_sorted = factors;
@@ -539,7 +631,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   for (size_t i = 0; i < loops.size(); ++i) {
     const int index = loops[i];
     const Edge& e = loops_[index].edge;
-    log_volume[i] = logChanceVolume(extent, e.information);
+    log_volume[i] = logChanceVolume(extent, widened ? widenedInformation(e.information) : e.information);
     if (stillRuledOut(index, judged_sorted, variance_factor, log_volume[i])) continue;
     if (!paths) paths = std::make_unique<SparsePoseGraphSolver::PathSearch>(solver_.pathSearch(factors));
     std::vector<int> path = rulingOutPath(index, paths.get(), judged_sorted, variance_factor, log_volume[i]);
@@ -627,9 +719,16 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
   if (radius == 0) return partners;
   const Edge& e = loops_[index].edge;
   const auto pose = [this](int id) { return solver_.pose(id); };
-  const StepCovariance step = [this](int p) -> Eigen::MatrixXd {
-    const int index = odometry_into_[p];
-    return index < 0 ? Eigen::MatrixXd() : Eigen::MatrixXd(odometry_[index].information.inverse());
+  const StepCovariance step = odometryStep();
+  // Under the noise scale (noiseScale()), every covariance of the cycle widened.
+  const bool widened = (solver_.noiseScale().array() != 1.0).any();
+  const auto widenedEdge = [this](Edge edge) {
+    edge.information = widenedInformation(edge.information);
+    return edge;
+  };
+  const StepCovariance widened_step = [this, &step](int p) -> Eigen::MatrixXd {
+    const Eigen::MatrixXd stated = step(p);
+    return stated.size() == 0 ? stated : widenedCovariance(stated);
   };
   const int last = std::min(newerEnd(e) + radius, static_cast<int>(loops_by_newer_pose_.size()) - 1);
   for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p) {
@@ -642,7 +741,9 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
       if (other == index || candidate.override_mode != LoopOverride::kAuto || !(rejected || arriving) ||
           !areNeighbours(e, candidate.edge, radius))
         continue;
-      const double d = cycleDistance(dimension_, e, candidate.edge, pose, step, variance_factor());
+      const double d = widened ? cycleDistance(dimension_, widenedEdge(e), widenedEdge(candidate.edge), pose,
+                                               widened_step, variance_factor())
+                               : cycleDistance(dimension_, e, candidate.edge, pose, step, variance_factor());
       if (d * d < schedule_.thresholds().q95) partners.push_back(other);
     }
   }

@@ -71,6 +71,14 @@ bool segmentCovariance(int dimension, int i, int j, const std::function<Pose(int
 
 double cycleDistance(int dimension, const Edge& a, const Edge& b, const std::function<Pose(int)>& pose,
                      const StepCovariance& step, double variance_factor) {
+  Eigen::VectorXd e;
+  Eigen::MatrixXd covariance;
+  if (!cycleError(dimension, a, b, pose, step, &e, &covariance)) return std::numeric_limits<double>::infinity();
+  return std::sqrt(e.dot(covariance.ldlt().solve(e)) / variance_factor);
+}
+
+bool cycleError(int dimension, const Edge& a, const Edge& b, const std::function<Pose(int)>& pose,
+                const StepCovariance& step, Eigen::VectorXd* error, Eigen::MatrixXd* covariance) {
   // Pair b's endpoints with a's: b runs the same way as a or reversed.
   const bool same_direction = std::abs(a.from - b.from) + std::abs(a.to - b.to) <=
                               std::abs(a.from - b.to) + std::abs(a.to - b.from);
@@ -79,19 +87,18 @@ double cycleDistance(int dimension, const Edge& a, const Edge& b, const std::fun
   Eigen::MatrixXd sigma_from, sigma_to;
   if (!segmentCovariance(dimension, near_from, a.from, pose, step, &sigma_from) ||
       !segmentCovariance(dimension, a.to, near_to, pose, step, &sigma_to))
-    return std::numeric_limits<double>::infinity();
+    return false;
   // The pose of near_to in the frame of near_from, predicted through a.
   const Pose segment_from = pose(near_from).inverse() * pose(a.from);
   const Pose segment_to = pose(a.to).inverse() * pose(near_to);
   const Pose predicted = segment_from * a.measurement * segment_to;
   const Pose measured = same_direction ? b.measurement : b.measurement.inverse();
-  const Eigen::VectorXd e = relativePoseError(dimension, Pose::identity(), predicted, measured);
+  *error = relativePoseError(dimension, Pose::identity(), predicted, measured);
   const Eigen::MatrixXd sigma_b = b.information.inverse();
-  const Eigen::MatrixXd covariance =
-      carried(dimension, (a.measurement * segment_to).inverse(), sigma_from) +
-      carried(dimension, segment_to.inverse(), a.information.inverse()) + sigma_to +
-      (same_direction ? sigma_b : carried(dimension, b.measurement, sigma_b));
-  return std::sqrt(e.dot(covariance.ldlt().solve(e)) / variance_factor);
+  *covariance = carried(dimension, (a.measurement * segment_to).inverse(), sigma_from) +
+                carried(dimension, segment_to.inverse(), a.information.inverse()) + sigma_to +
+                (same_direction ? sigma_b : carried(dimension, b.measurement, sigma_b));
+  return true;
 }
 
 }  // namespace core

@@ -108,6 +108,7 @@ SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
       anchor_(toBlock(dimension, Pose::identity())),
       variance_terms_(std::make_unique<VarianceTerms>()),
       decompositions_(std::make_unique<Decompositions>()) {
+  noise_scale_ = Eigen::VectorXd::Ones(tangent_);
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
   // SE(3) (supernodal, see the header): CHOLMOD's AMD on the scalar
   // pattern with a postordering gave a factor about twice as cheap as the
@@ -135,6 +136,8 @@ int SparsePoseGraphSolver::addFactor(int a, int b, const Pose& z,
   Factor f{a, b, std::unique_ptr<ceres::CostFunction>(makePoseErrorCost(dimension_, z, information)),
            SigLoss(0.0, shape_c_), mode};
   factors_.push_back(std::move(f));
+  sqrt_information_.push_back(sqrtInformation(information));
+  if (noise_scaled_) rescale_.push_back(rescaleOf(sqrt_information_.back()));
   const int k = numFactors() - 1;
   if (a != kAnchor) {
     incident_[a].push_back(k);
@@ -169,6 +172,12 @@ void SparsePoseGraphSolver::evaluate(const Factor& f, double* residual, double* 
   double* jacobians[2] = {jac_a ? ambient_a : nullptr, jac_b ? ambient_b : nullptr};
   const bool want_jacobians = jac_a || jac_b;
   f.cost->Evaluate(parameters, residual, want_jacobians ? jacobians : nullptr);
+  using Square = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const Eigen::MatrixXd* rescale = noise_scaled_ ? &rescale_[&f - factors_.data()] : nullptr;
+  if (rescale) {
+    Eigen::Map<Eigen::VectorXd> r(residual, tangent_);
+    r = *rescale * r;
+  }
   if (!want_jacobians) return;
   // Ambient -> tangent: J_local = J_ambient * PlusJacobian(x).
   double plus[7 * 6];
@@ -184,6 +193,32 @@ void SparsePoseGraphSolver::evaluate(const Factor& f, double* residual, double* 
   };
   if (jac_a) to_local(parameters[0], ambient_a, jac_a);
   if (jac_b) to_local(parameters[1], ambient_b, jac_b);
+  if (!rescale) return;
+  for (double* jacobian : {jac_a, jac_b})
+    if (jacobian) {
+      Eigen::Map<Square> j(jacobian, tangent_, tangent_);
+      j = *rescale * j;
+    }
+}
+
+Eigen::MatrixXd SparsePoseGraphSolver::rescaleOf(const Eigen::MatrixXd& sqrt_information) const {
+  // S D^-1 S^-1 = (S^-T D^-1 S^T)^T: one triangular solve.
+  const Eigen::MatrixXd inverse_d = noise_scale_.cwiseSqrt().cwiseInverse().asDiagonal();
+  const Eigen::MatrixXd st = sqrt_information.transpose();
+  return sqrt_information.transpose().triangularView<Eigen::Lower>().solve(inverse_d * st).transpose();
+}
+
+void SparsePoseGraphSolver::setNoiseScale(const Eigen::VectorXd& scale) {
+  if (scale.size() != tangent_ || !scale.allFinite() || (scale.array() < 1.0).any())
+    throw std::invalid_argument("noise scale: one finite value >= 1 per tangent component");
+  noise_scale_ = scale;
+  noise_scaled_ = (scale.array() != 1.0).any();
+  rescale_.clear();
+  for (int factor = 0; factor < numFactors(); ++factor) {
+    if (noise_scaled_) rescale_.push_back(rescaleOf(sqrt_information_[factor]));
+    markStale(factor);
+  }
+  model_known_ = false;
 }
 
 double SparsePoseGraphSolver::factorCost(const Factor& f, const double* residual) const {

@@ -52,6 +52,7 @@ void collectFinalState(IncrementalGnc* engine, ReplayResult* result) {
   result->estimate = engine->poses();
   result->solves = engine->totalIterations();
   result->gnc_steps = engine->totalGncSteps();
+  result->noise_scale = engine->noiseScale();
   std::vector<bool> labels, kept;
   for (const LoopClosure& loop : engine->loopClosures()) {
     LoopClosureResult r;

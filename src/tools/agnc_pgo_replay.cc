@@ -329,6 +329,8 @@ std::string metricsJson(const Arguments& args, const IncrementalLog& log, const 
        << "  \"runtime_s\": " << jsonNumber(result.runtime_s) << ",\n"
        << "  \"solves\": " << result.solves << ",\n"
        << "  \"gnc_steps\": " << result.gnc_steps << ",\n"
+       << "  \"noise_scale\": [" << jsonNumber(result.noise_scale(0)) << ", "
+       << jsonNumber(result.noise_scale(result.noise_scale.size() - 1)) << "],\n"
        << "  \"mean_free_poses\": " << jsonNumber(result.mean_free_poses) << ",\n"
        << "  \"solves_per_update_histogram\": [";
   for (size_t k = 0; k < result.solves_per_update_histogram.size(); ++k)

@@ -18,6 +18,8 @@
 
 #include "agnc_pgo/core/gnc_options.h"
 #include "agnc_pgo/core/graduation_schedule.h"
+#include "agnc_pgo/core/loop_consistency.h"
+#include "agnc_pgo/core/noise_scale.h"
 #include "agnc_pgo/core/pose_graph.h"
 #include "agnc_pgo/core/sparse_pose_graph_solver.h"
 
@@ -138,6 +140,13 @@ class IncrementalGnc {
   const std::vector<Edge>& odometry() const { return odometry_; }
   int pendingLoopClosures() const { return static_cast<int>(pending_.size()); }
 
+  // Per tangent component (translation first): how many times, in
+  // variance, the stated covariances understate the noise, as the pairs of
+  // neighbouring loop closures show it for translation and for rotation
+  // (noise_scale.h); 1 unless they prove it larger. Every judgement and the
+  // kernel use the stated covariances widened by this.
+  const Eigen::VectorXd& noiseScale() const { return solver_.noiseScale(); }
+
   // Totals since construction.
   long totalIterations() const { return total_iterations_; }
   long totalGncSteps() const { return total_gnc_steps_; }
@@ -201,6 +210,20 @@ class IncrementalGnc {
   // Loop closures rejected on arrival as unexplained (not undone trials) whose cycle overlaps
   // one of `landed`'s and that the map, tighter now, explains.
   std::vector<int> explainedAfterLanding(const std::vector<int>& landed);
+  // The stated covariance of the odometry step that created a pose (empty
+  // at the start of a chain), for the pairwise cycle test.
+  StepCovariance odometryStep() const;
+  // Adds the cycle errors of a new loop closure and its earlier neighbours
+  // to the noise estimate; re-estimates it each time the pairs double.
+  void sampleNoise(int index);
+  // Widens every stated covariance to the new scale; the loop closures the
+  // narrower one rejected and the wider one would keep at the estimate are
+  // judged again as if they had just arrived.
+  void applyNoiseScale(double translation, double rotation);
+  // A stated information or covariance under the current noise scale.
+  Eigen::MatrixXd widenedInformation(const Eigen::MatrixXd& information) const;
+  Eigen::MatrixXd widenedCovariance(const Eigen::MatrixXd& covariance) const;
+
   // The steps of a pass, in order.
   UpdatePlan judgeArrivals();
   void judgeFar(const std::vector<int>& far, UpdatePlan* plan);
@@ -284,6 +307,9 @@ class IncrementalGnc {
   // that a fresh shortest path does (rulingOutPath).
   SparsePoseGraphSolver::PathTree path_tree_;
   double unrefined_step_ = 0.0;  // window displacements since the last whole-graph refinement
+  NoiseScale translation_noise_, rotation_noise_;
+  Poses dead_reckoning_;  // per pose: the odometry composed along its chain
+  int next_noise_estimate_ = 1;  // samples at which the noise scale is estimated next
   long total_iterations_ = 0;
   long total_gnc_steps_ = 0;
 };

@@ -59,5 +59,10 @@ bool segmentCovariance(int dimension, int i, int j, const std::function<Pose(int
 double cycleDistance(int dimension, const Edge& a, const Edge& b, const std::function<Pose(int)>& pose,
                      const StepCovariance& step, double variance_factor = 1.0);
 
+// The cycle error e and its covariance (above), with the stated
+// covariances; false if a segment is not an odometry chain.
+bool cycleError(int dimension, const Edge& a, const Edge& b, const std::function<Pose(int)>& pose,
+                const StepCovariance& step, Eigen::VectorXd* error, Eigen::MatrixXd* covariance);
+
 }  // namespace core
 }  // namespace agnc_pgo

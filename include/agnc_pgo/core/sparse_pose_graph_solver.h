@@ -119,6 +119,14 @@ class SparsePoseGraphSolver {
     factors_[factor].dormant = dormant;
     markStale(factor);
   }
+  // Every factor's stated covariance Sigma becomes D Sigma D, D = diag(sqrt(
+  // scale)) per tangent component (translation first; each >= 1): the error
+  // e is whitened with S D^-1 instead of S, so residuals and Jacobians are
+  // multiplied by S D^-1 S^-1. Widens what the kernels and the tests on
+  // whitened residuals take for noise (noise_scale.h); all ones undoes it.
+  void setNoiseScale(const Eigen::VectorXd& scale);
+  const Eigen::VectorXd& noiseScale() const { return noise_scale_; }
+
   // The whitened residual norm r = |S e| at the current estimate.
   double whitenedNorm(int factor) const;
   // The kernel weight at the factor's current mu (1 for plain, 0 disabled).
@@ -254,6 +262,8 @@ class SparsePoseGraphSolver {
     bool dormant = false;
     bool excluded = false;  // left out of linearize() (predict()), structure unchanged
   };
+  // A factor's S D^-1 S^-1 for the current noise scale.
+  Eigen::MatrixXd rescaleOf(const Eigen::MatrixXd& sqrt_information) const;
   // Where a window factor's blocks live in the sparse matrix.
   struct FactorSlot {
     int factor;
@@ -385,6 +395,11 @@ class SparsePoseGraphSolver {
   // iteration's CG solve must reach, and the last step's model, if a step
   // was taken on this structure.
   double forcing_ = 0.0;
+  Eigen::VectorXd noise_scale_;  // setNoiseScale's, per tangent component
+  bool noise_scaled_ = false;    // some component > 1
+  // Per factor (beside factors_, which evaluate() walks): S, upper
+  // triangular, and S D^-1 S^-1 while noise_scaled_.
+  std::vector<Eigen::MatrixXd> sqrt_information_, rescale_;
   double convergence_step_ = std::numeric_limits<double>::infinity();
   bool model_known_ = false;
   double model_gradient_norm_ = 0.0, last_gradient_norm_ = 0.0;

@@ -36,6 +36,7 @@ struct ReplayResult {
   double runtime_s = 0;         // total wall time of all updates
   long solves = 0;              // Gauss-Newton iterations over the run
   long gnc_steps = 0;
+  Eigen::VectorXd noise_scale;  // IncrementalGnc::noiseScale() at the end (translation first)
   double mean_free_poses = 0;   // average number of free poses per solve
   std::vector<int> solves_per_update_histogram;  // [k] = updates that took k solves
   std::vector<double> loop_update_ms;    // one per update that had loop closures
