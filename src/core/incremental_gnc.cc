@@ -622,7 +622,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   // for the shortest path between far endpoints expands most of the map.
   const double variance_factor = solver_.varianceFactor(first, factors);
   const Eigen::VectorXd extent = mapExtent(dimension_, solver_.blocks());
-  const bool widened = (solver_.noiseScale().array() != 1.0).any();
+  const bool widened = solver_.noiseScaled();
   std::vector<double> log_volume(loops.size());
   std::vector<int> undecided, undecided_factors;
   std::vector<int> judged_sorted = factors;
@@ -721,7 +721,7 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
   const auto pose = [this](int id) { return solver_.pose(id); };
   const StepCovariance step = odometryStep();
   // Under the noise scale (noiseScale()), every covariance of the cycle widened.
-  const bool widened = (solver_.noiseScale().array() != 1.0).any();
+  const bool widened = solver_.noiseScaled();
   const auto widenedEdge = [this](Edge edge) {
     edge.information = widenedInformation(edge.information);
     return edge;

@@ -126,6 +126,7 @@ class SparsePoseGraphSolver {
   // whitened residuals take for noise (noise_scale.h); all ones undoes it.
   void setNoiseScale(const Eigen::VectorXd& scale);
   const Eigen::VectorXd& noiseScale() const { return noise_scale_; }
+  bool noiseScaled() const { return noise_scaled_; }  // some component > 1
 
   // The whitened residual norm r = |S e| at the current estimate.
   double whitenedNorm(int factor) const;
