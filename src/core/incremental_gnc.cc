@@ -196,8 +196,9 @@ void IncrementalGnc::sampleNoise(int index) {
 }
 
 void IncrementalGnc::applyNoiseScale(double translation, double rotation) {
-  std::vector<char> rejected(loops_.size());
+  std::vector<char> rejected(loops_.size()), pending(loops_.size(), 0);
   for (size_t index = 0; index < loops_.size(); ++index) rejected[index] = !loops_[index].inlier;
+  for (int index : pending_) pending[index] = 1;
   const int t = dimension_ == 2 ? 2 : 3;
   Eigen::VectorXd scale(solver_.noiseScale().size());
   scale.head(t).setConstant(translation);
@@ -211,9 +212,7 @@ void IncrementalGnc::applyNoiseScale(double translation, double rotation) {
     refresh(&loop);
     // Judged again: those the narrower noise rejected and the wider one
     // would keep at the estimate as it is. The others stand.
-    if (!rejected[index] || !loop.inlier || loop.override_mode != LoopOverride::kAuto ||
-        std::find(pending_.begin(), pending_.end(), index) != pending_.end())
-      continue;
+    if (!rejected[index] || !loop.inlier || loop.override_mode != LoopOverride::kAuto || pending[index]) continue;
     loop.uncorroborated = false;
     loop.undone = false;
     loop.landed = false;
