@@ -271,6 +271,7 @@ void BackendWorker::solve() {
     if (!ok) ++counters_.failed_updates;
   }
   if (!ok) warn(error);
+  reportNoiseScale();
   last_update_ = ros::Time::now();
   graph_dirty_ = true;
   publish(false);
@@ -280,6 +281,19 @@ void BackendWorker::solve() {
     if (!first_published_) first_latencies_ms_.add((published - received) * 1e3);
   }
   pending_latency_.clear();
+}
+
+void BackendWorker::reportNoiseScale() {
+  const Eigen::VectorXd& scale = graph_.engine()->noiseScale();
+  const double translation = scale(0), rotation = scale(scale.size() - 1);
+  if (translation > logged_noise_translation_ || rotation > logged_noise_rotation_)
+    ROS_WARN_STREAM("agnc_pgo: the loop closures show more noise than the covariances state; every covariance "
+                    "is widened: translation variances x"
+                    << translation << ", rotation x" << rotation
+                    << " (~status noise_scale_*; the front-end's covariances are too tight)");
+  // Lower only when the graph was replaced (reset, load).
+  logged_noise_translation_ = translation;
+  logged_noise_rotation_ = rotation;
 }
 
 void BackendWorker::publishFirstEstimate() {
@@ -337,6 +351,9 @@ StatusInfo BackendWorker::status() const {
   s.first_latency_p50 = first_latencies_ms_.percentile(50);
   s.first_latency_p95 = first_latencies_ms_.percentile(95);
   s.first_latency_max = first_latencies_ms_.max();
+  const Eigen::VectorXd& scale = engine->noiseScale();
+  s.noise_scale_translation = scale(0);
+  s.noise_scale_rotation = scale(scale.size() - 1);
   s.paused = paused_;
   return s;
 }

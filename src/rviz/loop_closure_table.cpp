@@ -161,6 +161,10 @@ std::vector<std::string> statusLines(const agnc_pgo::GraphStatus& s) {
   lines.push_back("rejected odometry " + std::to_string(s.rejected_odometry) + ", loop closures " +
                   std::to_string(s.rejected_loop_closures) + " (dropped " + std::to_string(s.dropped_loop_closures) +
                   "), failed updates " + std::to_string(s.failed_updates));
+  // Zero in a status from before the field existed: as stated.
+  if (s.noise_scale_translation > 1.0 || s.noise_scale_rotation > 1.0)
+    lines.push_back("covariances widened (noise scale): translation x" + number(s.noise_scale_translation, "%.3g") +
+                    ", rotation x" + number(s.noise_scale_rotation, "%.3g"));
   if (!s.last_warning.empty()) lines.push_back("last warning: " + s.last_warning);
   return lines;
 }

@@ -59,6 +59,8 @@ class EndToEnd(unittest.TestCase):
         self.assertEqual(s.inliers, sum(1 for e in loops if e.inlier))
         self.assertEqual(s.outliers, sum(1 for e in loops if not e.inlier))
         self.assertEqual(s.odometry_edges, sum(1 for e in g.edges if e.type == e.ODOMETRY))
+        # Intel states its noise right (the replay keeps a scale of 1 on it).
+        self.assertEqual((s.noise_scale_translation, s.noise_scale_rotation), (1.0, 1.0))
 
         # Outlier markers: one red line (2 points) per outlier, green per inlier.
         m = markers.wait(lambda a: any(k.ns == "loop_outliers" and len(k.points) == 2 * s.outliers

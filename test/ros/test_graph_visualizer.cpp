@@ -68,6 +68,17 @@ TEST(GraphVisualizer, EdgesGoToTheListOfTheirStateAndTheStatusCountsThem) {
     EXPECT_EQ(m.action, visualization_msgs::Marker::ADD) << m.ns;
 }
 
+TEST(GraphVisualizer, StatusCarriesTheNoiseScalePerBlock) {
+  ros::Time::init();  // the status is stamped
+  StatusInfo info;
+  EXPECT_EQ(makeStatus(info).noise_scale_translation, 1.0);  // as stated until the engine widens
+  info.noise_scale_translation = 1.9;
+  info.noise_scale_rotation = 154.0;
+  const agnc_pgo::GraphStatus msg = makeStatus(info);
+  EXPECT_EQ(msg.noise_scale_translation, 1.9);
+  EXPECT_EQ(msg.noise_scale_rotation, 154.0);
+}
+
 TEST(GraphVisualizer, EmptyLineListsAreDeletedNotLeftStale) {
   const GraphSnapshot snapshot = snapshotWithNodes(2);  // no edges requested
   const visualization_msgs::MarkerArray array = makeMarkers(snapshot, VisualizerStyle());

@@ -128,6 +128,18 @@ TEST(StatusLines, CountsLatencyAndWarning) {
   EXPECT_EQ(lines[3], "last warning: rejected loop closure: bad");
 }
 
+TEST(StatusLines, NoiseScaleShownOnlyWhenCovariancesWereWidened) {
+  agnc_pgo::GraphStatus s;
+  s.noise_scale_translation = 1.0;
+  s.noise_scale_rotation = 1.0;
+  EXPECT_EQ(statusLines(s).size(), 3u);
+  s.noise_scale_translation = 1.9;
+  s.noise_scale_rotation = 154.2;
+  const auto lines = statusLines(s);
+  ASSERT_EQ(lines.size(), 4u);
+  EXPECT_EQ(lines[3], "covariances widened (noise scale): translation x1.9, rotation x154");
+}
+
 TEST(SelectionMarker, LineBetweenTheEndpointsOrDelete) {
   const agnc_pgo::PoseGraph g = graph();
   const auto m = selectionMarker(g, 1);  // nodes 2 -> 3

@@ -28,6 +28,8 @@ struct StatusInfo {
   long total_gnc_steps = 0, total_iterations = 0;
   double latency_p50 = 0, latency_p95 = 0, latency_max = 0;
   double first_latency_p50 = 0, first_latency_p95 = 0, first_latency_max = 0;  // to the first estimate
+  // IncrementalGnc::noiseScale(), per block (1 = covariances as stated).
+  double noise_scale_translation = 1.0, noise_scale_rotation = 1.0;
   bool paused = false;
 };
 
@@ -107,6 +109,8 @@ class BackendWorker {
   // Counts a rejected message in `counter` and warns (throttled) why.
   void reject(unsigned Counters::*counter, const std::string& message);
   void solve();
+  // Logs the engine's noise scale when it has risen since last logged.
+  void reportNoiseScale();
   void publish(bool force_graph);
   // The anytime first estimate of an update (~path, map -> odom).
   void publishFirstEstimate();
@@ -146,6 +150,9 @@ class BackendWorker {
   LatencyHistogram latencies_ms_;  // bounded: a status costs O(1) however long the run
   LatencyHistogram first_latencies_ms_;  // receive -> first estimate published
   bool first_published_ = false;         // in the update running now
+  // The noise scale last logged: a rise is logged once (it is re-estimated
+  // only as the loop closures double, so rarely).
+  double logged_noise_translation_ = 1.0, logged_noise_rotation_ = 1.0;
 
   struct WarningThrottle {
     double last_logged = -1e9;
