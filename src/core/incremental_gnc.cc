@@ -619,6 +619,10 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   // variance factor is the one the map's prediction uses. A loop closure
   // judged again tries first the path that ruled it out last time: a search
   // for the shortest path between far endpoints expands most of the map.
+  // Judged again, it must beat odds that grow with its judgements
+  // (repeatedJudgementLogOdds): dividing the chance volume by k asks the
+  // k-th judgement for a likelihood ratio above k, in both the path's bound
+  // and the map's prediction.
   const double variance_factor = solver_.varianceFactor(first, factors);
   const Eigen::VectorXd extent = mapExtent(dimension_, solver_.blocks());
   const bool widened = solver_.noiseScaled();
@@ -630,7 +634,8 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
   for (size_t i = 0; i < loops.size(); ++i) {
     const int index = loops[i];
     const Edge& e = loops_[index].edge;
-    log_volume[i] = logChanceVolume(extent, widened ? widenedInformation(e.information) : e.information);
+    log_volume[i] = logChanceVolume(extent, widened ? widenedInformation(e.information) : e.information) -
+                    repeatedJudgementLogOdds(++loops_[index].map_judgements);
     if (stillRuledOut(index, judged_sorted, variance_factor, log_volume[i])) continue;
     if (!paths) paths = std::make_unique<SparsePoseGraphSolver::PathSearch>(solver_.pathSearch(factors));
     std::vector<int> path = rulingOutPath(index, paths.get(), judged_sorted, variance_factor, log_volume[i]);

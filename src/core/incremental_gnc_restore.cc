@@ -13,7 +13,8 @@ std::vector<LoopClosureState> IncrementalGnc::loopStates() const {
   std::vector<LoopClosureState> out;
   out.reserve(loops_.size());
   for (const LoopClosure& loop : loops_)
-    out.push_back({loop.graduation, loop.override_mode, loop.uncorroborated, loop.undone, loop.landed});
+    out.push_back({loop.graduation, loop.override_mode, loop.uncorroborated, loop.undone, loop.landed,
+                   loop.map_judgements});
   return out;
 }
 
@@ -34,6 +35,10 @@ void IncrementalGnc::restore(const Poses& estimate, const std::vector<LoopClosur
     loop.uncorroborated = saved.uncorroborated;
     loop.undone = saved.undone;
     loop.landed = saved.landed;
+    if (saved.map_judgements < 0)
+      throw std::invalid_argument("restore: loop closure " + std::to_string(k) + " judged " +
+                                  std::to_string(saved.map_judgements) + " times");
+    loop.map_judgements = saved.map_judgements;
     solver_.setMu(loop.factor, loop.graduation.mu);
   }
   pending_.clear();

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -19,6 +21,11 @@ double logChanceVolume(const Eigen::VectorXd& extent, const Eigen::MatrixXd& inf
   double log_volume = 0.5 * ldlt.vectorD().array().log().sum();
   for (int k = 0; k < extent.size(); ++k) log_volume += std::log(std::max(extent(k), std::sqrt(covariance(k, k))));
   return log_volume;
+}
+
+double repeatedJudgementLogOdds(int judgement) {
+  if (judgement < 1) throw std::invalid_argument("repeatedJudgementLogOdds: judgement " + std::to_string(judgement));
+  return std::log(static_cast<double>(judgement));
 }
 
 double logPredictionOdds(const Eigen::VectorXd& residual, const Eigen::MatrixXd& covariance,

@@ -21,15 +21,17 @@ using core::kMaxAbsInformation;
 using core::ParseError;
 
 constexpr const char* kMagic = "agnc_pgo_sidecar";
-constexpr int kVersion = 3;
+constexpr int kVersion = 4;
 constexpr int kOldestVersion = 2;  // without the engine's three flags
 constexpr int kMaxStep = 1000;              // GNC steps of one graduation (a loop closure needs <= 6)
 constexpr int kMaxStepsAtOne = 1000000;
 constexpr std::size_t kNodeTokens = 11;     // NODE i sec nsec x y z qx qy qz qw
 // LOOP k from to mode, 7 graduation values, uncorroborated undone landed
-// (version 3), 4 stamps, score, label, source
-constexpr std::size_t kLoopTokens = 22;
-constexpr std::size_t kFlagTokens = 3;  // not in version 2
+// (version 3), map_judgements (version 4), 4 stamps, score, label, source
+constexpr std::size_t kLoopTokens = 23;
+constexpr std::size_t kFlagTokens = 3;       // not in version 2
+constexpr std::size_t kJudgementTokens = 1;  // not before version 4
+constexpr int kMaxJudgements = 1000000000;
 
 std::string hex(unsigned long value) {
   std::ostringstream out;
@@ -209,7 +211,7 @@ class SidecarParser {
       r.keyword(kMagic);
       version_ = static_cast<int>(r.integerIn("version", 0, 1000000));
       if (version_ < kOldestVersion || version_ > kVersion)
-        r.fail("unsupported sidecar version (this back-end reads versions 2 and 3)");
+        r.fail("unsupported sidecar version (this back-end reads versions 2 to 4)");
     }
     {
       LineReader r = line();
@@ -278,7 +280,7 @@ class SidecarParser {
 
   void parseLoop(Sidecar* s, std::size_t k) {
     LineReader r = line();
-    r.expectCount(version_ == kVersion ? kLoopTokens : kLoopTokens - kFlagTokens);
+    r.expectCount(kLoopTokens - (version_ < 4 ? kJudgementTokens : 0) - (version_ < 3 ? kFlagTokens : 0));
     r.keyword("LOOP");
     r.integerIn("LOOP index", static_cast<long long>(k), static_cast<long long>(k));
     const long long last_node = static_cast<long long>(s->stamps.size()) - 1;
@@ -295,11 +297,12 @@ class SidecarParser {
     g.alpha = r.numberIn("alpha", 0.0, 1.0);
     g.steps_at_one = static_cast<int>(r.integerIn("steps_at_one", 0, kMaxStepsAtOne));
     g.graduating = r.integerIn("graduating", 0, 1) != 0;
-    if (version_ == kVersion) {
+    if (version_ >= 3) {
       l.state.uncorroborated = r.integerIn("uncorroborated", 0, 1) != 0;
       l.state.undone = r.integerIn("undone", 0, 1) != 0;
       l.state.landed = r.integerIn("landed", 0, 1) != 0;
     }
+    if (version_ >= 4) l.state.map_judgements = static_cast<int>(r.integerIn("map_judgements", 0, kMaxJudgements));
     l.from_stamp = r.stamp("from stamp");
     l.to_stamp = r.stamp("to stamp");
     l.score = r.numberIn("score", -1e300, 1e300);
@@ -350,7 +353,7 @@ std::string formatSidecar(const Sidecar& s, const std::string& g2o_text) {
     out << "LOOP " << k << ' ' << l.from << ' ' << l.to << ' ' << static_cast<int>(l.state.override_mode) << ' ' << g.mu
         << ' ' << g.step << ' ' << g.init_step << ' ' << g.mu_init << ' ' << g.alpha << ' ' << g.steps_at_one << ' '
         << (g.graduating ? 1 : 0) << ' ' << (l.state.uncorroborated ? 1 : 0) << ' ' << (l.state.undone ? 1 : 0) << ' '
-        << (l.state.landed ? 1 : 0) << ' ' << l.from_stamp.sec << ' ' << l.from_stamp.nsec << ' ' << l.to_stamp.sec
+        << (l.state.landed ? 1 : 0) << ' ' << l.state.map_judgements << ' ' << l.from_stamp.sec << ' ' << l.from_stamp.nsec << ' ' << l.to_stamp.sec
         << ' ' << l.to_stamp.nsec << ' ' << l.score << ' ' << (l.is_outlier ? 1 : 0) << ' '
         << encodeSource(l.source) << '\n';
   }

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
+#include <stdexcept>
 #include <vector>
 #include <cstdlib>
 
@@ -52,6 +53,37 @@ TEST(LoopPrediction, AWideUncertaintyExplainsNothingBetterThanChance) {
   const Eigen::Matrix3d wide = 1e8 * Eigen::Matrix3d::Identity();
   EXPECT_LT(r.dot(wide.inverse() * r), 1e-4);
   EXPECT_LT(logPredictionOdds(r, wide, log_volume), 0.0);
+}
+
+TEST(LoopPrediction, TheKthJudgementMustBeatOddsOfK) {
+  EXPECT_EQ(repeatedJudgementLogOdds(1), 0.0);  // the first keeps even odds
+  EXPECT_DOUBLE_EQ(repeatedJudgementLogOdds(2), std::log(2.0));
+  EXPECT_DOUBLE_EQ(repeatedJudgementLogOdds(19), std::log(19.0));
+  EXPECT_THROW(repeatedJudgementLogOdds(0), std::invalid_argument);
+}
+
+TEST(LoopPrediction, UnderChanceTheKthBarIsBeatenAtMostOnceInK) {
+  // What makes log k the bar of the k-th judgement: where the residual is
+  // chance (uniform over the map's volume), the prediction's likelihood
+  // ratio has mean 1, so it exceeds k on at most 1/k of the volume. 3-D
+  // residuals on a grid over a cube of side 40 (log V = 3 log 40), a
+  // prediction of standard deviation 2 at the centre.
+  const double side = 40.0, log_volume = 3.0 * std::log(side);
+  const Eigen::Matrix3d s = 4.0 * Eigen::Matrix3d::Identity();
+  const int n = 60;
+  for (int k : {1, 2, 3, 10, 100}) {
+    int beaten = 0;
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int l = 0; l < n; ++l) {
+          const Eigen::Vector3d r(side * ((i + 0.5) / n - 0.5), side * ((j + 0.5) / n - 0.5),
+                                  side * ((l + 0.5) / n - 0.5));
+          if (logPredictionOdds(r, s, log_volume - repeatedJudgementLogOdds(k)) > 0.0) ++beaten;
+        }
+    const double fraction = static_cast<double>(beaten) / (n * n * n);
+    EXPECT_LE(fraction, 1.0 / k) << "k = " << k;
+    EXPECT_GT(fraction, 0.0) << "k = " << k;  // the bar is not out of reach
+  }
 }
 
 TEST(LoopPrediction, ANonFiniteOrSingularCovarianceExplainsNothing) {

@@ -88,6 +88,7 @@ SavedGraph sampleGraph(int dimension, int nodes = 30) {
     l.state.uncorroborated = k == 1;
     l.state.undone = k == 1;
     l.state.landed = k == 0;
+    l.state.map_judgements = k == 0 ? 3 : 0;
     l.from_stamp = g.stamps[l.edge.from];
     l.to_stamp = g.stamps[k];
     l.source = k == 0 ? "front end %1 with spaces\nand a newline" : "";
@@ -139,6 +140,8 @@ TEST(GraphIo, SaveLoadSaveIsByteIdentical) {
     EXPECT_FALSE(loaded.loops[0].state.uncorroborated || loaded.loops[0].state.undone);
     EXPECT_TRUE(loaded.loops[0].state.landed);
     EXPECT_FALSE(loaded.loops[1].state.landed);
+    EXPECT_EQ(loaded.loops[0].state.map_judgements, 3);
+    EXPECT_EQ(loaded.loops[1].state.map_judgements, 0);
     EXPECT_EQ(loaded.stamps[7], ros::Time(107, 35000));
     saveGraph(loaded, b);
     EXPECT_EQ(readFile(a), readFile(b));
@@ -161,7 +164,7 @@ TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
     std::vector<std::string> f;
     for (std::string t; fields >> t;) f.push_back(t);
     if (f[0] == "agnc_pgo_sidecar") f[1] = "2";
-    if (f[0] == "LOOP") f.erase(f.begin() + 12, f.begin() + 15);
+    if (f[0] == "LOOP") f.erase(f.begin() + 12, f.begin() + 16);
     std::string joined;
     for (const std::string& t : f) joined += (joined.empty() ? "" : " ") + t;
     v2 += joined + "\n";
@@ -172,10 +175,40 @@ TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
   EXPECT_EQ(loaded.loops[1].state.override_mode, core::LoopOverride::kForceOutlier);
   EXPECT_EQ(loaded.loops[1].source, "");
   for (const SavedLoop& l : loaded.loops)
-    EXPECT_FALSE(l.state.uncorroborated || l.state.undone || l.state.landed);
+    EXPECT_FALSE(l.state.uncorroborated || l.state.undone || l.state.landed || l.state.map_judgements);
   // A version-2 line length in a version-3 file is refused.
   writeFile(sidecarPath(path), resign(replaceOnce(v2, "agnc_pgo_sidecar 2", "agnc_pgo_sidecar 3") + "checksum 00000000\n"));
   expectLoadError(path, "expected 22 tokens, got 19");
+}
+
+// A sidecar saved before the map's judgements were counted (version 3)
+// loads with the flags and the count 0: those loop closures' next
+// judgement is taken as their first.
+TEST(GraphIo, Version3SidecarLoadsWithTheJudgementsUncounted) {
+  const std::string path = tempDir() + "/v3.g2o";
+  saveGraph(sampleGraph(2), path);
+  std::istringstream in(readFile(sidecarPath(path)));
+  std::string v3;
+  for (std::string line; std::getline(in, line);) {
+    if (line.compare(0, 9, "checksum ") == 0) break;
+    std::istringstream fields(line);
+    std::vector<std::string> f;
+    for (std::string t; fields >> t;) f.push_back(t);
+    if (f[0] == "agnc_pgo_sidecar") f[1] = "3";
+    if (f[0] == "LOOP") f.erase(f.begin() + 15);
+    std::string joined;
+    for (const std::string& t : f) joined += (joined.empty() ? "" : " ") + t;
+    v3 += joined + "\n";
+  }
+  writeFile(sidecarPath(path), resign(v3 + "checksum 00000000\n"));
+  const SavedGraph loaded = loadGraph(path, identity(2));
+  ASSERT_EQ(loaded.loops.size(), 2u);
+  EXPECT_TRUE(loaded.loops[0].state.landed);
+  EXPECT_TRUE(loaded.loops[1].state.uncorroborated && loaded.loops[1].state.undone);
+  for (const SavedLoop& l : loaded.loops) EXPECT_EQ(l.state.map_judgements, 0);
+  // A version-3 line length in a version-4 file is refused.
+  writeFile(sidecarPath(path), resign(replaceOnce(v3, "agnc_pgo_sidecar 3", "agnc_pgo_sidecar 4") + "checksum 00000000\n"));
+  expectLoadError(path, "expected 23 tokens, got 22");
 }
 
 // The reproducer of the SIGSEGV: counts whose sum wraps to the edge count.
@@ -203,7 +236,7 @@ TEST(GraphIo, SidecarValuesOutOfTheirDomainAreRefused) {
   std::istringstream fields(loop_line);
   std::vector<std::string> f;
   for (std::string t; fields >> t;) f.push_back(t);
-  ASSERT_EQ(f.size(), 22u);
+  ASSERT_EQ(f.size(), 23u);
   const auto withField = [&](int index, const std::string& value) {
     std::vector<std::string> g = f;
     g[index] = value;
@@ -221,13 +254,14 @@ TEST(GraphIo, SidecarValuesOutOfTheirDomainAreRefused) {
                {4, "3", "override mode 3 is outside"},
                {12, "2", "uncorroborated 2 is outside [0, 1]"},
                {14, "-1", "landed -1 is outside [0, 1]"},
-               {19, "nan", "score: non-finite"}};
+               {15, "-2", "map_judgements -2 is outside [0, 1000000000]"},
+               {20, "nan", "score: non-finite"}};
   for (const auto& c : cases) {
     SCOPED_TRACE(c.reason);
     writeFile(sidecarPath(path), withField(c.field, c.value));
     expectLoadError(path, c.reason);
   }
-  writeFile(sidecarPath(path), withField(21, "=" + std::string(5000, 'x')));
+  writeFile(sidecarPath(path), withField(22, "=" + std::string(5000, 'x')));
   expectLoadError(path, "source is longer than 4096 bytes");
   // A zero quaternion in a NODE's odometry pose.
   const std::size_t node = meta.find("NODE 3 ");

@@ -157,8 +157,8 @@ class SaveLoad(unittest.TestCase):
             ("zero quaternion", g2o, replace_field(replace_field(replace_field(replace_field(
                 meta, b"NODE 1 ", 7, b"0"), b"NODE 1 ", 8, b"0"), b"NODE 1 ", 9, b"0"), b"NODE 1 ", 10, b"0"),
              "not unit length"),
-            ("huge source", g2o, replace_field(meta, b"LOOP 0 ", 21, b"=" + b"x" * 100000), "source is longer"),
-            ("NaN score", g2o, replace_field(meta, b"LOOP 0 ", 19, b"nan"), "non-finite"),
+            ("huge source", g2o, replace_field(meta, b"LOOP 0 ", 22, b"=" + b"x" * 100000), "source is longer"),
+            ("NaN score", g2o, replace_field(meta, b"LOOP 0 ", 20, b"nan"), "non-finite"),
             ("sidecar of another g2o", g2o.replace(b"VERTEX_SE2 1 ", b"VERTEX_SE2 1  ", 1), meta, "does not belong"),
         ]
         for k, (what, g2o_bytes, meta_bytes, reason) in enumerate(cases):

@@ -46,6 +46,10 @@ struct LoopClosure {
   // Landed on its whole cycle by a trial that stood. A later group of loop
   // closures that the map rejects because of it may release it (update()).
   bool landed = false;
+  // How many times the map has judged it (explainedByTheMap): each time is
+  // another chance for a false loop closure to look explained, so the k-th
+  // judgement asks for a likelihood ratio above k.
+  int map_judgements = 0;
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (GncOptions::Schedule::classification)
   bool dormant = false;       // out of the linear system (see GncOptions::Rejection::dormant_weight)
@@ -61,6 +65,7 @@ struct LoopClosureState {
   bool uncorroborated = false;  // LoopClosure::uncorroborated
   bool undone = false;          // LoopClosure::undone
   bool landed = false;          // LoopClosure::landed
+  int map_judgements = 0;       // LoopClosure::map_judgements
 };
 
 struct UpdateStats {

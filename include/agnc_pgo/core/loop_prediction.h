@@ -42,6 +42,16 @@ namespace core {
 // the factor.
 double logChanceVolume(const Eigen::VectorXd& extent, const Eigen::MatrixXd& information);
 
+// The k-th time the map judges the same loop closure (k >= 1), the odds it
+// must beat: log k. A loop closure judged again (the map has tightened, or a
+// landing has moved it) gets another chance to look explained; a likelihood
+// ratio exceeds k under the false hypothesis with probability at most 1/k
+// (Markov's inequality: its mean there is 1), so the k-th judgement asks
+// for a ratio above k -- the bar of a repeated test (Bonferroni's), not a
+// tuned one. The first keeps even odds. Throws std::invalid_argument for
+// k < 1.
+double repeatedJudgementLogOdds(int judgement);
+
 // log(N(r; 0, S) * V). -inf if S is not finite and positive definite.
 double logPredictionOdds(const Eigen::VectorXd& residual, const Eigen::MatrixXd& covariance,
                          double log_chance_volume);

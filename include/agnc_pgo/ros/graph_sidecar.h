@@ -3,9 +3,10 @@
 // edges are odometry, each loop closure's state (core::LoopClosureState),
 // stamps, source and score). ROS-free, so the fuzz target can call the parser.
 //
-// Format (version 3; version 2, without the engine's three flags per loop
-// closure, is read as well, the flags unset), one record per line:
-//   agnc_pgo_sidecar 3
+// Format (version 4; version 3, without the count of the map's judgements
+// per loop closure, and version 2, without the engine's three flags either,
+// are read as well, what they lack unset), one record per line:
+//   agnc_pgo_sidecar 4
 //   g2o BYTES CRC32          the g2o file this sidecar belongs to
 //   dimension D
 //   prior x y z qx qy qz qw T  then T*T information entries (row-major)
