@@ -188,11 +188,14 @@ void IncrementalGnc::sampleNoise(int index) {
   rotation_noise_.add(rotation, pairs);
   if (translation_noise_.samples() < next_noise_estimate_) return;
   while (next_noise_estimate_ <= translation_noise_.samples()) next_noise_estimate_ *= 2;
+  // The estimate over every sample so far, lower or higher than the last:
+  // the first samples of a run can all be false (Intel with 30 % of its
+  // loop closures in local groups begins with 64 poses of them: translation
+  // widened 116 times at 64 samples, until the end had the scale stayed).
   const Eigen::VectorXd& now = solver_.noiseScale();
-  const double widened_translation = std::max(now(0), translation_noise_.estimate());
-  const double widened_rotation = std::max(now(t), rotation_noise_.estimate());
-  if (widened_translation > now(0) || widened_rotation > now(t))
-    applyNoiseScale(widened_translation, widened_rotation);
+  const double translation_scale = translation_noise_.estimate();
+  const double rotation_scale = rotation_noise_.estimate();
+  if (translation_scale != now(0) || rotation_scale != now(t)) applyNoiseScale(translation_scale, rotation_scale);
 }
 
 void IncrementalGnc::applyNoiseScale(double translation, double rotation) {
@@ -205,14 +208,16 @@ void IncrementalGnc::applyNoiseScale(double translation, double rotation) {
   scale.tail(scale.size() - t).setConstant(rotation);
   solver_.setNoiseScale(scale);
   // The odds bounds of the paths that ruled loop closures out were of the
-  // narrower noise.
+  // former noise.
   paths_ruled_out_.clear();
   for (int index = 0; index < static_cast<int>(loops_.size()); ++index) {
     LoopClosure& loop = loops_[index];
     refresh(&loop);
-    // Judged again: those the narrower noise rejected and the wider one
-    // would keep at the estimate as it is. The others stand.
-    if (!rejected[index] || !loop.inlier || loop.override_mode != LoopOverride::kAuto || pending[index]) continue;
+    // Judged again as arrivals: those whose verdict at the estimate as it is
+    // the new noise changes (rejected under the former and kept under the
+    // new, or the other way round). The others stand.
+    const bool verdict_changed = rejected[index] == static_cast<char>(loop.inlier);
+    if (!verdict_changed || loop.override_mode != LoopOverride::kAuto || pending[index]) continue;
     loop.uncorroborated = false;
     loop.undone = false;
     loop.landed = false;

@@ -221,9 +221,9 @@ class IncrementalGnc {
   // Adds the cycle errors of a new loop closure and its earlier neighbours
   // to the noise estimate; re-estimates it each time the pairs double.
   void sampleNoise(int index);
-  // Widens every stated covariance to the new scale; the loop closures the
-  // narrower one rejected and the wider one would keep at the estimate are
-  // judged again as if they had just arrived.
+  // Scales every stated covariance to the new noise scale; the loop closures
+  // whose verdict at the estimate it changes are judged again as if they
+  // had just arrived.
   void applyNoiseScale(double translation, double rotation);
   // A stated information or covariance under the current noise scale.
   Eigen::MatrixXd widenedInformation(const Eigen::MatrixXd& information) const;

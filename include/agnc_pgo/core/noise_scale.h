@@ -15,7 +15,11 @@
 // distribution-free lower confidence bound, by the normal approximation of
 // the binomial), and never below 1: stated covariances are trusted unless
 // the data show them too tight, however wide they are. False samples only
-// raise it: it holds with up to three quarters of them false. (All pairs
+// raise it: it holds with up to three quarters of them false -- over the
+// run, not over every stretch of it: the engine re-estimates as the samples
+// double and takes the latest estimate, lower or higher, so a first stretch
+// of false loop closures that misleads an early estimate is outvoted by the
+// samples after it. (All pairs
 // as samples, and their median, were measured too: groups of false loop
 // closures then made most of M3500's pairs and widened a graph whose noise
 // is stated six times too wide.)
