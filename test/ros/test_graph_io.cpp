@@ -151,24 +151,32 @@ TEST(GraphIo, SaveLoadSaveIsByteIdentical) {
   }
 }
 
-// A sidecar saved before the engine's flags were kept (version 2: LOOP
-// lines without uncorroborated / undone) loads, the flags unset.
-TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
-  const std::string path = tempDir() + "/v2.g2o";
-  saveGraph(sampleGraph(2), path);
+// The body (before its checksum line) of `path`'s sidecar as an older
+// version wrote it: the version number replaced and the LOOP tokens
+// [first, last) left out.
+std::string olderSidecarBody(const std::string& path, int version, int first, int last) {
   std::istringstream in(readFile(sidecarPath(path)));
-  std::string v2;
+  std::string body;
   for (std::string line; std::getline(in, line);) {
     if (line.compare(0, 9, "checksum ") == 0) break;
     std::istringstream fields(line);
     std::vector<std::string> f;
     for (std::string t; fields >> t;) f.push_back(t);
-    if (f[0] == "agnc_pgo_sidecar") f[1] = "2";
-    if (f[0] == "LOOP") f.erase(f.begin() + 12, f.begin() + 16);
+    if (f[0] == "agnc_pgo_sidecar") f[1] = std::to_string(version);
+    if (f[0] == "LOOP") f.erase(f.begin() + first, f.begin() + last);
     std::string joined;
     for (const std::string& t : f) joined += (joined.empty() ? "" : " ") + t;
-    v2 += joined + "\n";
+    body += joined + "\n";
   }
+  return body;
+}
+
+// A sidecar saved before the engine's flags were kept (version 2: LOOP
+// lines without uncorroborated / undone / landed) loads, the flags unset.
+TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
+  const std::string path = tempDir() + "/v2.g2o";
+  saveGraph(sampleGraph(2), path);
+  const std::string v2 = olderSidecarBody(path, 2, 12, 16);
   writeFile(sidecarPath(path), resign(v2 + "checksum 00000000\n"));
   const SavedGraph loaded = loadGraph(path, identity(2));
   ASSERT_EQ(loaded.loops.size(), 2u);
@@ -187,19 +195,7 @@ TEST(GraphIo, Version2SidecarLoadsWithTheFlagsUnset) {
 TEST(GraphIo, Version3SidecarLoadsWithTheJudgementsUncounted) {
   const std::string path = tempDir() + "/v3.g2o";
   saveGraph(sampleGraph(2), path);
-  std::istringstream in(readFile(sidecarPath(path)));
-  std::string v3;
-  for (std::string line; std::getline(in, line);) {
-    if (line.compare(0, 9, "checksum ") == 0) break;
-    std::istringstream fields(line);
-    std::vector<std::string> f;
-    for (std::string t; fields >> t;) f.push_back(t);
-    if (f[0] == "agnc_pgo_sidecar") f[1] = "3";
-    if (f[0] == "LOOP") f.erase(f.begin() + 15);
-    std::string joined;
-    for (const std::string& t : f) joined += (joined.empty() ? "" : " ") + t;
-    v3 += joined + "\n";
-  }
+  const std::string v3 = olderSidecarBody(path, 3, 15, 16);
   writeFile(sidecarPath(path), resign(v3 + "checksum 00000000\n"));
   const SavedGraph loaded = loadGraph(path, identity(2));
   ASSERT_EQ(loaded.loops.size(), 2u);
