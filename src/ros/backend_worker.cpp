@@ -291,7 +291,8 @@ void BackendWorker::reportNoiseScale() {
                     "is widened: translation variances x"
                     << translation << ", rotation x" << rotation
                     << " (~status noise_scale_*; the front-end's covariances are too tight)");
-  // Lower only when the graph was replaced (reset, load).
+  // A fall (the engine's later estimate, or a replaced graph) is not
+  // logged, only remembered, so the next rise is measured from it.
   logged_noise_translation_ = translation;
   logged_noise_rotation_ = rotation;
 }
