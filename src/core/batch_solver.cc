@@ -10,6 +10,7 @@
 
 #include "agnc_pgo/core/global_initialization.h"
 #include "agnc_pgo/core/pose_manifolds.h"
+#include "cholmod_threads.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -44,6 +45,7 @@ BatchResult optimizeBatch(PoseGraph* graph, const BatchOptions& options) {
   solver_options.gradient_tolerance = 1e-12;
   solver_options.parameter_tolerance = 1e-12;
   ceres::Solver::Summary summary;
+  keepCholmodSerial();  // Ceres factorises with CHOLMOD
   ceres::Solve(solver_options, &problem, &summary);
 
   for (size_t i = 0; i < blocks.size(); ++i) graph->poses[i] = fromBlock(dim, blocks[i]);

@@ -8,12 +8,12 @@
 #include <stdexcept>
 #include <string>
 
-#include <omp.h>
-
 #include <Eigen/CholmodSupport>
 #include <Eigen/LU>
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
+
+#include "cholmod_threads.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -42,16 +42,6 @@ constexpr double kStepTolerance = 1e-10;
 constexpr double kMaxForcing = 0.9;
 constexpr double kForcingPower = 1.618033988749895;  // (1 + sqrt 5) / 2
 constexpr double kForcingSafeguard = 0.1;
-
-// CHOLMOD 3 (Debian 12's SuiteSparse 5.12) runs loops of its supernodal
-// factorisation on a team of 4 OpenMP threads fixed when it was compiled,
-// whatever OMP_NUM_THREADS says. On two cores they oversubscribe the machine
-// (about 4 million futex calls in one Sphere2500 replay) and made the replay
-// slower and erratic (Sphere2500 at 10 %: 21-34 s, serial 14-16 s). Zero
-// active levels make every parallel region this thread starts run on the
-// thread alone; libgomp keeps that setting per thread, so the other threads
-// of the process (a nodelet manager's) keep their parallelism.
-void keepCholmodSerial() { omp_set_max_active_levels(0); }
 
 // Sums of a sequence that grows at its end (a Fenwick tree): add to one
 // element and the sum of the first `count` elements, each in log(size).
