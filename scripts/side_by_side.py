@@ -96,6 +96,23 @@ def cell(value, unit, digits):
     return "–" if value is None else f"{value:.{digits}f} {unit}"
 
 
+def run_order(engines, repeat):
+    """Every other repeat runs the engines in reverse, so no engine always runs first."""
+    return engines if repeat % 2 == 0 else engines[::-1]
+
+
+def table_row(name, commits, runs):
+    """The cells of one input's row: `runs` maps each commit to its runs' metrics.json."""
+    runtimes = [median(runs[c], "runtime_s") for c in commits]
+    ratios = [f"{runtimes[-1] / r:.2f}" if r and runtimes[-1] is not None else "–" for r in runtimes[:-1]]
+    slowest = " / ".join(cell(median(runs[c], "update_ms_max"), "", 0).strip() for c in commits) + " ms"
+    last = runs[commits[-1]]
+    first = cell(median(last, "first_estimate_ms_max"), "ms", 0)
+    quality = f"{last[0]['precision']:.3f} / {last[0]['recall']:.3f}"
+    ate = " / ".join(cell(runs[c][0].get("ate_vs_inlier_optimum_m"), "", 4).strip() for c in commits)
+    return [name] + [cell(r, "s", 3) for r in runtimes] + ratios + [slowest, first, quality, ate]
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("commits", nargs="+", help="commits to compare ('.' = this working tree's build)")
@@ -122,18 +139,9 @@ def main(argv=None):
             continue
         runs = {commit: [] for commit, _ in engines}
         for repeat in range(args.repeat):
-            order = engines if repeat % 2 == 0 else engines[::-1]
-            for commit, tool in order:
+            for commit, tool in run_order(engines, repeat):
                 runs[commit].append(replay(tool, arguments))
-        runtimes = [median(runs[c], "runtime_s") for c, _ in engines]
-        last = engines[-1][0]
-        ratios = [f"{runtimes[-1] / r:.2f}" if r else "–" for r in runtimes[:-1]]
-        slowest = " / ".join(f"{median(runs[c], 'update_ms_max'):.0f}" for c, _ in engines) + " ms"
-        first = cell(median(runs[last], "first_estimate_ms_max"), "ms", 0)
-        final = runs[last][0]
-        row = [name] + [cell(r, "s", 3) for r in runtimes] + ratios + \
-              [slowest, first, f"{final['precision']:.3f} / {final['recall']:.3f}",
-               " / ".join(cell(runs[c][0].get("ate_vs_inlier_optimum_m"), "", 4).strip() for c, _ in engines)]
+        row = table_row(name, [c for c, _ in engines], runs)
         print("| " + " | ".join(row) + " |", flush=True)
     return 0
 
