@@ -7,13 +7,12 @@
 #include <filesystem>
 #include <random>
 #include <string>
-#include <thread>
 
 #include <gtest/gtest.h>
-#include <omp.h>
 
 #include "agnc_pgo/core/batch_solver.h"
 #include "agnc_pgo/core/g2o_io.h"
+#include "omp_levels.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -233,17 +232,12 @@ TEST(GlobalInitialization, LevenbergMarquardtFromItMatchesTheOptimumOfTheGenerat
 // threads is switched off for the thread that solves (keepCholmodSerial, as
 // in the engine's solver), and for that thread only.
 TEST(OptimizeBatch, FactorisesSeriallyOnlyOnItsOwnThread) {
-  int on_solver_thread = -1, on_other_thread = -1;
-  std::thread solver_thread([&on_solver_thread] {
+  const OmpLevels levels = ompLevelsAfter([] {
     GeneratedGraph g = generate(3, 5, 0.003);
     EXPECT_TRUE(optimizeBatch(&g.graph).converged);
-    on_solver_thread = omp_get_max_active_levels();
   });
-  solver_thread.join();
-  std::thread other_thread([&on_other_thread] { on_other_thread = omp_get_max_active_levels(); });
-  other_thread.join();
-  EXPECT_EQ(on_solver_thread, 0);
-  EXPECT_GT(on_other_thread, 0);
+  EXPECT_EQ(levels.on_working_thread, 0);
+  EXPECT_GT(levels.on_other_thread, 0);
 }
 
 

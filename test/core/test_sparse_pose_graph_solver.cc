@@ -2,9 +2,8 @@
 // ceres::Solve on the same graphs.
 #include <gtest/gtest.h>
 
+#include "omp_levels.h"
 #include "shared_datasets.h"
-
-#include <omp.h>
 
 #include <Eigen/Eigenvalues>
 
@@ -13,7 +12,6 @@
 #include <memory>
 #include <random>
 #include <string>
-#include <thread>
 #include <utility>
 #include <vector>
 
@@ -220,16 +218,10 @@ TEST(SparsePoseGraphSolver, ObjectiveIsTheGraduatedCostWhateverMu) {
 // threads keep their parallelism.
 TEST(SparsePoseGraphSolver, Se3FactorisationIsSerialOnlyOnItsOwnThread) {
   AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
-  int on_solver_thread = -1, on_other_thread = -1;
-  std::thread solver_thread([&on_solver_thread] {
-    auto solver = solveIncrementalSolver(readG2o(dataset("tinyGrid3D.g2o")), 1);
-    on_solver_thread = omp_get_max_active_levels();
-  });
-  solver_thread.join();
-  std::thread other_thread([&on_other_thread] { on_other_thread = omp_get_max_active_levels(); });
-  other_thread.join();
-  EXPECT_EQ(on_solver_thread, 0);
-  EXPECT_GT(on_other_thread, 0);
+  const OmpLevels levels =
+      ompLevelsAfter([] { auto solver = solveIncrementalSolver(readG2o(dataset("tinyGrid3D.g2o")), 1); });
+  EXPECT_EQ(levels.on_working_thread, 0);
+  EXPECT_GT(levels.on_other_thread, 0);
 }
 
 TEST(SparsePoseGraphSolver, RejectsUnknownPosesAndBadInformation) {
