@@ -214,7 +214,7 @@ void SparsePoseGraphSolver::setNoiseScale(const Eigen::VectorXd& scale) {
 double SparsePoseGraphSolver::factorCost(const Factor& f, const double* residual) const {
   if (f.mode == FactorMode::kDisabled) return 0.0;
   const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
-  if (f.mode == FactorMode::kPlain) return 0.5 * s;
+  if (!kernelWeighted(f)) return 0.5 * s;
   double rho[3];
   f.loss.Evaluate(s, rho);
   return 0.5 * rho[0];
@@ -229,7 +229,7 @@ double SparsePoseGraphSolver::whitenedNorm(int factor) const {
 double SparsePoseGraphSolver::weight(int factor) const {
   const Factor& f = factors_[factor];
   if (f.mode == FactorMode::kDisabled) return 0.0;
-  if (f.mode == FactorMode::kPlain) return 1.0;
+  if (!kernelWeighted(f)) return 1.0;
   return f.loss.weight(whitenedNorm(factor));
 }
 
@@ -404,7 +404,7 @@ double SparsePoseGraphSolver::linearize() {
     if (f.mode == FactorMode::kDisabled || f.excluded) continue;
     evaluate(f, r.data(), s.ia >= 0 ? ja.data() : nullptr, s.ib >= 0 ? jb.data() : nullptr);
     double w = 1.0;
-    if (f.mode == FactorMode::kRobust) {
+    if (kernelWeighted(f)) {
       double rho[3];
       f.loss.Evaluate(r.squaredNorm(), rho);
       w = rho[1];
@@ -637,7 +637,7 @@ SparsePoseGraphSolver::Prediction SparsePoseGraphSolver::predictAlongPathOf(int 
     if (step.a == kAnchor || step.dormant || (!forward && step.b != at)) return out;
     evaluate(step, residual, forward ? jac_p : jac_q, forward ? jac_q : jac_p);
     double w = step.mode == FactorMode::kDisabled ? 0.0 : 1.0;
-    if (step.mode == FactorMode::kRobust) {
+    if (kernelWeighted(step)) {
       double rho[3];
       step.loss.Evaluate(Eigen::Map<const Eigen::Matrix<double, D, 1>>(residual).squaredNorm(), rho);
       w = rho[1];
@@ -832,9 +832,11 @@ void SparsePoseGraphSolver::refreshVarianceTerms() const {
       const double s = Eigen::Map<const Eigen::VectorXd>(residual, tangent_).squaredNorm();
       double w = 1.0;
       if (f.mode == FactorMode::kRobust) {
-        double rho[3];
-        f.loss.Evaluate(s, rho);
-        w = rho[1];
+        if (kernelWeighted(f)) {
+          double rho[3];
+          f.loss.Evaluate(s, rho);
+          w = rho[1];
+        }
         redundancy = w * dof;
       }
       chi2 = w * s;

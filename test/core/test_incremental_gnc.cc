@@ -130,6 +130,45 @@ TEST(IncrementalGnc, LoopClosureThatLandsStopsGraduatingOnceConsistent) {
   EXPECT_LT(engine.loopClosures()[0].distance, 1.0);
 }
 
+// A loop closure kept with a residual its covariance explains is decided:
+// from the next solve on it counts at full weight, so the estimate is the
+// least-squares one over what was kept (Geman-McClure's weight, 0.81 at
+// 1 sigma, would hold the map towards the odometry); the objective that
+// judges the decisions still prices it at mu = 1.
+TEST(IncrementalGnc, KeptLoopClosureCountsAtFullWeight) {
+  auto owned = squareEngine(GncOptions());
+  IncrementalGnc& engine = *owned;
+  const Edge loop = edge(4, 0, Pose::fromSE2(0.5, 0, 0.1), 25.0);
+  engine.addLoopClosure(loop);
+  engine.update();
+  engine.optimize();
+  const LoopClosure& kept = engine.loopClosures()[0];
+  ASSERT_TRUE(kept.inlier);
+  EXPECT_TRUE(kept.full_weight);
+  EXPECT_EQ(kept.weight, 1.0);
+
+  PoseGraph graph;
+  graph.dimension = 2;
+  graph.poses = engine.poses();
+  for (int i = 0; i < 4; ++i) graph.edges.push_back(edge(i, i + 1, Pose::fromSE2(1, 0, M_PI / 2)));
+  graph.edges.push_back(loop);
+  graph.edges.back().kind = EdgeKind::kLoopClosure;
+  optimizeBatch(&graph);
+  for (int i = 0; i < engine.numPoses(); ++i)
+    EXPECT_LT((engine.pose(i).translation - graph.poses[i].translation).norm(), 1e-3) << i;  // GM: up to 0.027
+}
+
+// A far outlier is not decided into the estimate: it stays on the kernel.
+TEST(IncrementalGnc, RejectedLoopClosureStaysOnTheKernel) {
+  auto owned = squareEngine(GncOptions());
+  IncrementalGnc& engine = *owned;
+  engine.addLoopClosure(edge(4, 0, Pose::fromSE2(30, 0, 0)));
+  engine.update();
+  EXPECT_FALSE(engine.loopClosures()[0].inlier);
+  EXPECT_FALSE(engine.loopClosures()[0].full_weight);
+  EXPECT_LT(engine.loopClosures()[0].weight, 1e-3);
+}
+
 // Along a straight chain a loop closure's correction is linear in the
 // poses: the first Gauss-Newton step reaches the minimum and the model
 // predicted it exactly, so it is also the last (judged by the mean step
@@ -365,13 +404,16 @@ TEST(IncrementalGncEndToEnd, GeneratedWorldsWithOutliersInEveryMode) {
 // With this world's 160 loop closures the lower confidence bound is loose
 // (noise_scale.h), in 2-D (one rotational degree of freedom) most: the
 // scale found is a fraction of 100 and some true loop closures stay out
-// (without it, all of them).
+// (without it, all of them). Still too tight after the scale, only part of
+// the true loop closures pass the chi-square gate, and those count at full
+// weight: outlier-free recall 0.60 (2-D) and 0.87 (3-D), against 0.70 and
+// 0.93 when every kept loop closure stayed on Geman-McClure's weights.
 TEST(IncrementalGncEndToEnd, RotationNoiseStatedTooTightIsWidenedFromThePairs) {
   struct World {
     std::string name;
     double min_rotation_scale, min_recall;
   };
-  for (const World& w : {World{"grid2d_400_seed1", 5.0, 0.6}, World{"grid3d_400_seed1", 20.0, 0.9}}) {
+  for (const World& w : {World{"grid2d_400_seed1", 5.0, 0.55}, World{"grid3d_400_seed1", 20.0, 0.85}}) {
     const std::string& name = w.name;
     const std::string world = std::string(AGNC_PGO_TEST_WORLD_DIR) + "/" + name;
     const PoseGraph graph = readG2o(world + ".g2o");

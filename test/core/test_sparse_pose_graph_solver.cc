@@ -213,6 +213,34 @@ TEST(SparsePoseGraphSolver, ObjectiveIsTheGraduatedCostWhateverMu) {
   EXPECT_NEAR(solver.totalCost(), expected, 1e-12);
 }
 
+// A robust factor at full weight is solved as a plain one -- weight 1, cost
+// r^2 / 2, so two measurements of one relative pose end at their average --
+// while the objective still prices it at mu = 1 (Geman-McClure).
+TEST(SparsePoseGraphSolver, FullWeightFactorIsSolvedPlainAndPricedRobust) {
+  SparsePoseGraphSolver solver(2, 3.0);
+  solver.addPose(Pose::fromSE2(0, 0, 0));
+  solver.addPose(Pose::fromSE2(1, 0, 0));
+  solver.addFactor(SparsePoseGraphSolver::kAnchor, 0, Pose::fromSE2(0, 0, 0), Eigen::Matrix3d::Identity() * 1e9,
+                   FactorMode::kPlain);
+  solver.addFactor(0, 1, Pose::fromSE2(1, 0, 0), Eigen::Matrix3d::Identity(), FactorMode::kPlain);
+  const int loop = solver.addFactor(0, 1, Pose::fromSE2(3, 0, 0), Eigen::Matrix3d::Identity(), FactorMode::kRobust);
+  solver.setMu(loop, 1.0);
+  const auto geman_mcclure = [](double r) { return 0.5 * 9.0 * r * r / (9.0 + r * r); };
+  EXPECT_NEAR(solver.weight(loop), 81.0 / 169.0, 1e-12);  // r = 2
+  solver.setFullWeight(loop, true);
+  EXPECT_EQ(solver.weight(loop), 1.0);
+  EXPECT_NEAR(solver.totalCost(), 0.5 * 4.0, 1e-9);
+  EXPECT_NEAR(solver.objective(), geman_mcclure(2.0), 1e-9);
+  for (int k = 0; k < 3; ++k) solver.iterate(0);
+  EXPECT_NEAR(solver.pose(1).translation.x(), 2.0, 1e-6);  // the average of 1 and 3
+  EXPECT_NEAR(solver.objective(), 0.5 * 1.0 + geman_mcclure(1.0), 1e-6);
+  solver.setFullWeight(loop, false);  // Geman-McClure again: x = 1 + r with r w(r) = 2 - r
+  for (int k = 0; k < 50; ++k) solver.iterate(0);
+  const double r = solver.whitenedNorm(loop);
+  EXPECT_NEAR(r * 81.0 / ((9.0 + r * r) * (9.0 + r * r)), 2.0 - r, 1e-6);
+  EXPECT_GT(r, 1.1);
+}
+
 // CHOLMOD's own OpenMP team is switched off for the thread that factorises
 // (see keepCholmodSerial), and for that thread only: a nodelet manager's other
 // threads keep their parallelism.

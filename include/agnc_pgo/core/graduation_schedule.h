@@ -53,6 +53,10 @@ class GraduationSchedule {
   // The engine uses it to tell rejected loop closures from kept ones.
   bool isInlier(double distance) const { return distance < thresholds_.q95; }
 
+  // The chi-square test of a whitened residual norm r under the stated
+  // covariance, whatever the convention: r^2 < q(0.95).
+  bool withinGate(double r) const { return r * r < thresholds_.q95; }
+
   // The classification a user sees for a whitened residual norm r
   // (GncOptions::Schedule::classification), and the value it compares with
   // q(0.95): r^2 for kWeight, the convention's distance for kDistance.

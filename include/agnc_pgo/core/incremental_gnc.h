@@ -53,6 +53,9 @@ struct LoopClosure {
   double weight = 1.0;        // kernel weight at the current mu
   bool inlier = true;         // classification (GncOptions::Schedule::classification)
   bool dormant = false;       // out of the linear system (see GncOptions::Rejection::dormant_weight)
+  // In the solve at weight 1, not the kernel's: its graduation ended with
+  // a residual the chi-square test accepts under its stated covariance.
+  bool full_weight = false;
   LoopOverride override_mode = LoopOverride::kAuto;
 };
 
@@ -181,7 +184,7 @@ class IncrementalGnc {
     struct LoopState {  // what a pass may change of a loop closure
       GraduationState graduation;
       double distance, weight;
-      bool uncorroborated, undone, landed, inlier, dormant;
+      bool uncorroborated, undone, landed, inlier, dormant, full_weight;
     };
     std::vector<LoopState> loops;
     double objective = 0.0;  // SparsePoseGraphSolver::objective(first)
@@ -274,6 +277,7 @@ class IncrementalGnc {
   void refresh(LoopClosure* loop);
   void applyOverride(LoopClosure* loop);
   void setDormant(LoopClosure* loop, bool dormant);
+  void setFullWeight(LoopClosure* loop, bool full_weight);
   bool staysDormant(const LoopClosure& loop) const;
   void acceptConsistent(const std::vector<int>& graduating);
   void finishAt(LoopClosure* loop, double mu);  // graduation over at this mu

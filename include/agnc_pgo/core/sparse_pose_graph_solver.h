@@ -119,6 +119,15 @@ class SparsePoseGraphSolver {
     factors_[factor].dormant = dormant;
     markStale(factor);
   }
+  // A robust factor at full weight enters the solve as a plain one (cost
+  // r^2 / 2, weight 1) but keeps its mode and mu, and objective() still
+  // prices it at mu = 1: the engine's loop closures whose graduation ended
+  // inside the chi-square gate, so that the estimate is the least-squares
+  // one over what the robust objective decided to keep.
+  void setFullWeight(int factor, bool full_weight) {
+    factors_[factor].full_weight = full_weight;
+    markStale(factor);
+  }
   // Every factor's stated covariance Sigma becomes D Sigma D, D = diag(sqrt(
   // scale)) per tangent component (translation first; each >= 1): the error
   // e is whitened with S D^-1 instead of S, so residuals and Jacobians are
@@ -261,8 +270,12 @@ class SparsePoseGraphSolver {
     SigLoss loss;
     FactorMode mode;
     bool dormant = false;
+    bool full_weight = false;  // setFullWeight
     bool excluded = false;  // left out of linearize() (predict()), structure unchanged
   };
+  // Whether the factor enters the solve with its kernel's IRLS weight
+  // (robust, not at full weight) rather than with weight 1.
+  static bool kernelWeighted(const Factor& f) { return f.mode == FactorMode::kRobust && !f.full_weight; }
   // A factor's S D^-1 S^-1 for the current noise scale.
   Eigen::MatrixXd rescaleOf(const Eigen::MatrixXd& sqrt_information) const;
   // Where a window factor's blocks live in the sparse matrix.
