@@ -50,7 +50,7 @@ struct LoopClosure {
   // another chance for a false loop closure to look explained, so the k-th
   // judgement asks for a likelihood ratio above k.
   int map_judgements = 0;
-  double weight = 1.0;        // kernel weight at the current mu
+  double weight = 1.0;        // weight in the solve: the kernel's at the current mu, or 1 (full_weight)
   bool inlier = true;         // classification (GncOptions::Schedule::classification)
   bool dormant = false;       // out of the linear system (see GncOptions::Rejection::dormant_weight)
   // In the solve at weight 1, not the kernel's: its graduation ended with
