@@ -887,6 +887,13 @@ IterationResult SparsePoseGraphSolver::iterate(int first) {
   const double ghg = gradient_.dot(hg);
   const DoglegPath path{gauss_newton,
                         ghg > 0 ? Eigen::VectorXd(-(g2 / ghg) * gradient_) : Eigen::VectorXd(-gradient_)};
+  // With step extension on, the radius only keeps the model honest: the
+  // iteration starts from the full Gauss-Newton step, and a step the model
+  // mispredicts shrinks it at the price of a cost evaluation (a damping
+  // attempt) rather than of the factorisations that growing it from a
+  // small radius takes (a drift correction: one per tripling).
+  if (step_extension_ && std::isfinite(path.gaussNewtonNorm()))
+    radius_ = std::max(radius_, std::min(max_radius_, path.gaussNewtonNorm()));
   for (int attempt = 0; attempt < kMaxDampingAttempts; ++attempt) {
     TrialStep trial = tryStep(first, path, radius_, cost, &result);
     const double step_norm = trial.step.norm();

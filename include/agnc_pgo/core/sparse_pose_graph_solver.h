@@ -163,15 +163,19 @@ class SparsePoseGraphSolver {
   void setConvergenceStep(double mean_step) { convergence_step_ = mean_step; }
   // The next iteration starts again from the initial radius.
   void resetTrustRegion() { radius_ = initial_radius_; }
-  // While on, a step cut short by the trust region that the quadratic model
-  // predicted well is extended along the same dogleg path, on the same
-  // factorisation, while the longer step lowers the cost further and the
-  // model still predicts it (ratio >= the radius' growth bound): where the
-  // radius only has to keep the model honest, learning how far it reaches by
-  // tripling it once per iteration costs one factorisation per tripling (a
-  // drift correction of hundreds of metres: five of them). Off (the
-  // default), the radius also bounds how far one iteration goes, which is
-  // what keeps a new outlier at a small mu from pulling the map far.
+  // While on, the radius only has to keep the model honest: each iteration
+  // starts from the full Gauss-Newton step (the radius is raised to it), a
+  // step that raises the cost or that the model mispredicts (ratio below
+  // the shrink bound) is shrunk at the price of a cost evaluation, and a
+  // truncated step that the quadratic model predicted well is extended
+  // along the same dogleg path, on the same factorisation, while the longer
+  // step lowers the cost further and the model still predicts it (ratio >=
+  // the radius' growth bound). Learning how far the model reaches by
+  // growing a small radius, tripling it once per iteration, costs one
+  // factorisation per tripling (a drift correction of hundreds of metres:
+  // five of them). Off (the default), the radius also bounds how far one
+  // iteration goes, which is what keeps a new outlier at a small mu from
+  // pulling the map far.
   void setStepExtension(bool enabled) { step_extension_ = enabled; }
 
   // Robust cost over all factors (0.5 * sum rho).
