@@ -5,6 +5,7 @@
 #include <functional>
 #include <limits>
 #include <memory>
+#include <numeric>
 #include <stdexcept>
 #include <string>
 
@@ -840,9 +841,20 @@ void IncrementalGnc::selectGraduating(UpdatePlan* plan) {
   const bool reset = options_.schedule.reset != ResetPolicy::kNone && (!plan->to_graduate.empty() || !needs_restart_.empty());
   // A loop closure with both ends held fixed cannot move in this update.
   const int reach = std::max(plan->oldest, plan->first);
-  if (reset)
-    for (int index = 0; index < static_cast<int>(loops_.size()); ++index)
-      if (options_.schedule.reset == ResetPolicy::kAll || newerEnd(loops_[index].edge) >= reach) select(index);
+  if (reset) {
+    // In index order, as the loop closures arrived, found through the poses
+    // that can move: a window costs what it holds, not the map.
+    std::vector<int> in_reach;
+    if (options_.schedule.reset == ResetPolicy::kAll) {
+      in_reach.resize(loops_.size());
+      std::iota(in_reach.begin(), in_reach.end(), 0);
+    } else {
+      for (int pose = std::max(reach, 0); pose < static_cast<int>(loops_by_newer_pose_.size()); ++pose)
+        in_reach.insert(in_reach.end(), loops_by_newer_pose_[pose].begin(), loops_by_newer_pose_[pose].end());
+      std::sort(in_reach.begin(), in_reach.end());
+    }
+    for (int index : in_reach) select(index);
+  }
   plan->graduated = plan->graduating;
 }
 

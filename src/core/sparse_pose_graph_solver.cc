@@ -289,9 +289,20 @@ void SparsePoseGraphSolver::buildStructure(int first) {
 void SparsePoseGraphSolver::collectSlots(int first) {
   // The factors that touch a variable (pose >= first), their endpoints as
   // variables (pose - first) until orderVariables() maps them to rows.
+  // Found through the variables' own factors (each at its newer endpoint),
+  // so that a window costs what it holds, not the map; in factor order, so
+  // that the normal equations are summed as they always were.
   auto var = [first](int id) { return id >= first ? id - first : -1; };
+  std::vector<int>& window_factors = window_factors_;
+  window_factors.clear();
+  for (int id = std::max(first, 0); id < numPoses(); ++id) {
+    for (int k : incident_[id])
+      if (std::max(factors_[k].a, factors_[k].b) == id) window_factors.push_back(k);
+    window_factors.insert(window_factors.end(), priors_[id].begin(), priors_[id].end());
+  }
+  std::sort(window_factors.begin(), window_factors.end());
   slots_.clear();
-  for (int k = 0; k < numFactors(); ++k) {
+  for (int k : window_factors) {
     const Factor& f = factors_[k];
     if (f.mode == FactorMode::kDisabled || f.dormant) continue;
     const int va = f.a == kAnchor ? -1 : var(f.a);

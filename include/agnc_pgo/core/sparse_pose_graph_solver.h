@@ -394,6 +394,7 @@ class SparsePoseGraphSolver {
   int structure_first_ = -1, structure_poses_ = -1, structure_factors_ = -1;
   long structure_version_ = 0, built_version_ = -1;  // bumped when a factor leaves/joins
   std::vector<FactorSlot> slots_;
+  std::vector<int> window_factors_;  // collectSlots() scratch space
   std::vector<int> position_;  // variable -> block row of the permuted Hessian
   Eigen::SparseMatrix<double> hessian_;
   Eigen::VectorXd gradient_;
