@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <queue>
+#include <type_traits>
 #include <utility>
 #include <stdexcept>
 #include <string>
@@ -162,12 +163,8 @@ void SparsePoseGraphSolver::evaluate(const Factor& f, double* residual, double* 
   double* jacobians[2] = {jac_a ? ambient_a : nullptr, jac_b ? ambient_b : nullptr};
   const bool want_jacobians = jac_a || jac_b;
   f.cost->Evaluate(parameters, residual, want_jacobians ? jacobians : nullptr);
-  using Square = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   const Eigen::MatrixXd* rescale = noise_scaled_ ? &rescale_[&f - factors_.data()] : nullptr;
-  if (rescale) {
-    Eigen::Map<Eigen::VectorXd> r(residual, tangent_);
-    r = *rescale * r;
-  }
+  if (rescale) applyRescale(*rescale, residual, 1);
   if (!want_jacobians) return;
   // Ambient -> tangent: J_local = J_ambient * PlusJacobian(x).
   double plus[7 * 6];
@@ -185,10 +182,27 @@ void SparsePoseGraphSolver::evaluate(const Factor& f, double* residual, double* 
   if (jac_b) to_local(parameters[1], ambient_b, jac_b);
   if (!rescale) return;
   for (double* jacobian : {jac_a, jac_b})
-    if (jacobian) {
-      Eigen::Map<Square> j(jacobian, tangent_, tangent_);
-      j = *rescale * j;
+    if (jacobian) applyRescale(*rescale, jacobian, tangent_);
+}
+
+void SparsePoseGraphSolver::applyRescale(const Eigen::MatrixXd& rescale, double* rows, int columns) const {
+  // In place and in fixed-size arithmetic: evaluate() runs for every factor
+  // of every iteration, and a dynamic-size product allocates its temporary.
+  auto apply = [&](auto size) {
+    constexpr int D = decltype(size)::value;
+    const Eigen::Map<const Eigen::Matrix<double, D, D>> m(rescale.data());
+    if (columns == 1) {
+      Eigen::Map<Eigen::Matrix<double, D, 1>> r(rows);
+      const Eigen::Matrix<double, D, 1> scaled = m * r;
+      r = scaled;
+    } else {
+      Eigen::Map<Eigen::Matrix<double, D, D, Eigen::RowMajor>> j(rows);
+      const Eigen::Matrix<double, D, D, Eigen::RowMajor> scaled = m * j;
+      j = scaled;
     }
+  };
+  if (tangent_ == 3) apply(std::integral_constant<int, 3>());
+  else apply(std::integral_constant<int, 6>());
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::rescaleOf(const Eigen::MatrixXd& sqrt_information) const {

@@ -149,6 +149,53 @@ TEST(SparsePoseGraphSolver, WindowHoldsOlderPosesFixed) {
   for (int i = 0; i < 5; ++i) EXPECT_EQ(solver.pose(i).translation, g.poses[i].translation) << i;
 }
 
+// A noise scale s widens a factor's covariance per tangent component; for a
+// diagonal information W that is the information W / s, so the scaled
+// solver must take the same steps (residuals and Jacobians rescaled alike)
+// as one given W / s, in 2-D and in 3-D.
+TEST(SparsePoseGraphSolver, NoiseScaleActsAsTheWidenedInformation) {
+  for (int dim : {2, 3}) {
+    const int d = dim == 2 ? 3 : 6;
+    Eigen::VectorXd weights(d), scale(d);
+    for (int i = 0; i < d; ++i) {
+      weights(i) = 50.0 + 30.0 * i;
+      scale(i) = 1.0 + 0.7 * (i % 3) + (i >= d / 2 ? 2.0 : 0.0);
+    }
+    SparsePoseGraphSolver scaled(dim), widened(dim);
+    auto pose = [dim](int i) {
+      return dim == 2 ? Pose::fromSE2(i + 0.1 * std::sin(i), 0.2 * std::cos(i), 0.05 * i)
+                      : Pose::fromXYZRPY(i, 0.1 * std::sin(i), 0.1 * std::cos(i), 0.02 * i, -0.03 * i, 0.05 * i);
+    };
+    for (SparsePoseGraphSolver* solver : {&scaled, &widened}) {
+      const bool scaled_one = solver == &scaled;
+      const Eigen::MatrixXd information =
+          scaled_one ? Eigen::MatrixXd(weights.asDiagonal()) : Eigen::MatrixXd(weights.cwiseQuotient(scale).asDiagonal());
+      for (int i = 0; i < 6; ++i) solver->addPose(pose(i));
+      // The scale widens every factor, the prior too.
+      const Eigen::MatrixXd prior = scaled_one ? Eigen::MatrixXd(1e8 * Eigen::MatrixXd::Identity(d, d))
+                                               : Eigen::MatrixXd((1e8 * scale.cwiseInverse()).asDiagonal());
+      solver->addFactor(SparsePoseGraphSolver::kAnchor, 0, pose(0), prior, FactorMode::kPlain);
+      for (int i = 0; i < 5; ++i)
+        solver->addFactor(i, i + 1, dim == 2 ? Pose::fromSE2(1, 0, 0.1) : Pose::fromXYZRPY(1, 0, 0, 0.02, 0, 0.1),
+                          information, FactorMode::kPlain);
+      solver->addFactor(0, 5, dim == 2 ? Pose::fromSE2(4.6, 0.8, 0.45) : Pose::fromXYZRPY(4.6, 0.8, 0.2, 0.1, 0, 0.45),
+                        information, FactorMode::kRobust);
+      solver->setMu(6, 0.5);
+      if (scaled_one) solver->setNoiseScale(scale);
+    }
+    ASSERT_TRUE(scaled.noiseScaled());
+    EXPECT_NEAR(scaled.whitenedNorm(6), widened.whitenedNorm(6), 1e-12 * widened.whitenedNorm(6));
+    for (int k = 0; k < 3; ++k) {
+      const IterationResult a = scaled.iterate(0), b = widened.iterate(0);
+      ASSERT_TRUE(a.accepted && b.accepted) << "dim " << dim << " iteration " << k;
+      EXPECT_NEAR(a.cost_after, b.cost_after, 1e-9 * b.cost_before) << "dim " << dim << " iteration " << k;
+      EXPECT_NEAR(a.predicted_decrease, b.predicted_decrease, 1e-9 * b.cost_before) << "dim " << dim;
+    }
+    for (int i = 0; i < 6; ++i)
+      EXPECT_LT((scaled.pose(i).translation - widened.pose(i).translation).norm(), 1e-7) << "dim " << dim << " pose " << i;
+  }
+}
+
 // Along a straight chain the 0.3 m a loop closure asks for is a pure
 // translation: the cost is quadratic in it, so the model predicts the
 // decrease exactly; on a curved graph it does not.

@@ -367,6 +367,9 @@ class SparsePoseGraphSolver {
   // zero above first_row) with the factorised Hessian of the window.
   Eigen::MatrixXd relativeCovariance(const Eigen::MatrixXd& jt, long first_row);
   Eigen::MatrixXd solve(const Eigen::MatrixXd& rhs);
+  // rows <- rescale * rows for a residual (columns 1) or a row-major
+  // tangent x tangent Jacobian (columns = tangent).
+  void applyRescale(const Eigen::MatrixXd& rescale, double* rows, int columns) const;
   double factorCost(const Factor& f, const double* residual) const;
   double windowCost() const;
   void evaluate(const Factor& f, double* residual, double* jac_a, double* jac_b) const;
