@@ -306,22 +306,20 @@ void SparsePoseGraphSolver::collectSlots(int first) {
   // Found through the variables' own factors (each at its newer endpoint),
   // so that a window costs what it holds, not the map; in factor order, so
   // that the normal equations are summed as they always were.
-  auto var = [first](int id) { return id >= first ? id - first : -1; };
-  std::vector<int>& window_factors = window_factors_;
-  window_factors.clear();
+  window_factors_.clear();
   for (int id = std::max(first, 0); id < numPoses(); ++id) {
     for (int k : incident_[id])
-      if (std::max(factors_[k].a, factors_[k].b) == id) window_factors.push_back(k);
-    window_factors.insert(window_factors.end(), priors_[id].begin(), priors_[id].end());
+      if (std::max(factors_[k].a, factors_[k].b) == id) window_factors_.push_back(k);
+    window_factors_.insert(window_factors_.end(), priors_[id].begin(), priors_[id].end());
   }
-  std::sort(window_factors.begin(), window_factors.end());
+  std::sort(window_factors_.begin(), window_factors_.end());
+  auto var = [first](int id) { return id >= first ? id - first : -1; };
   slots_.clear();
-  for (int k : window_factors) {
+  for (int k : window_factors_) {
     const Factor& f = factors_[k];
     if (f.mode == FactorMode::kDisabled || f.dormant) continue;
     const int va = f.a == kAnchor ? -1 : var(f.a);
-    const int vb = var(f.b);
-    if (va < 0 && vb < 0) continue;
+    const int vb = var(f.b);  // va or vb is a variable: each factor found has an endpoint >= first
     slots_.push_back(FactorSlot{k, va, vb, va >= 0 && vb >= 0, 0, 0, 0, 0, -1, 0});
   }
 }
