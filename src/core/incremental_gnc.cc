@@ -761,8 +761,13 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
   for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p) {
     for (int other : loops_by_newer_pose_[p]) {
       const LoopClosure& candidate = loops_[other];
-      // Rejected by the graduation's own test, whatever the user sees.
-      const bool rejected = !schedule_.isInlier(schedule_.distanceOf(candidate.distance)) &&
+      // Rejected by the graduation's own test, whatever the user sees, or
+      // as a far loop closure the map ruled out or whose trial the
+      // objective refused (uncorroborated): the test alone misses those
+      // left between the far gate and the inlier gate, q(0.90) <= d <
+      // q(0.95), where a far arrival can stay.
+      const bool rejected = (candidate.uncorroborated ||
+                             !schedule_.isInlier(schedule_.distanceOf(candidate.distance))) &&
                             !candidate.graduation.graduating;
       const bool arriving = std::find(far.begin(), far.end(), other) != far.end();
       if (other == index || candidate.override_mode != LoopOverride::kAuto || !(rejected || arriving) ||

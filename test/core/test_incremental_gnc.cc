@@ -749,6 +749,54 @@ TEST(IncrementalGncEndToEnd, ARevisitIsJudgedAsOneRun) {
   for (const LoopClosure& loop : drive.engine.loopClosures()) EXPECT_TRUE(loop.inlier) << loop.edge.from;
 }
 
+// A straight corridor whose odometry states 2.5 mm per step (and next to no
+// heading noise), revisited by two neighbouring loop closures that both say
+// the corridor lies 7 sigma (7 cm) to the side of where the odometry puts
+// it, 50 poses back, where the odometry's lateral variance is 3.1 times the
+// loop closure's. Alone, the first is ruled out by the map (landing it would
+// cost about 49 / (2 (1 + 3.1)) = 5.9, more than rejecting it does: rho(7) =
+// 3.8 at mu = 1) and stays at r = 7, inside the inlier gate of the reference
+// convention (q(0.95) = 7.81 on r) though rejected. The second agrees with
+// it, and the two together pay (49 / (1 + 6.25) = 6.8 against 7.6). A
+// rejected neighbour is one the engine rejected -- refused
+// by the objective or ruled out by the map -- whatever band of the
+// classification its residual falls in, so the two land as one run.
+TEST(IncrementalGncEndToEnd, ARefusedLoopClosureInsideTheInlierGateCorroboratesItsNeighbour) {
+  const double sigma_step = 0.0025, sigma_heading = 1e-5, sigma_loop = 0.01;
+  IncrementalGnc engine(2, GncOptions());
+  engine.addFirstPose(Pose::fromSE2(0, 0, 0), 1e8 * Eigen::Matrix3d::Identity());
+  const auto step = [&](int i) {
+    Edge e = edge(i, i + 1, Pose::fromSE2(1.0, 0.0, 0.0));
+    e.information = Eigen::Vector3d(1 / (sigma_step * sigma_step), 1 / (sigma_step * sigma_step),
+                                    1 / (sigma_heading * sigma_heading))
+                        .asDiagonal();
+    e.kind = EdgeKind::kOdometry;
+    engine.addOdometry(e);
+  };
+  const auto close = [&](int newer) -> const LoopClosure& {
+    Edge e = edge(newer, newer - 50, Pose::fromSE2(-50.0, 7.0 * sigma_loop, 0.0),
+                  1 / (sigma_loop * sigma_loop));
+    e.kind = EdgeKind::kLoopClosure;
+    engine.addLoopClosure(e);
+    engine.update();
+    return engine.loopClosures().back();
+  };
+  for (int i = 0; i < 60; ++i) step(i);
+  const LoopClosure& first = close(60);
+  EXPECT_TRUE(first.uncorroborated);
+  EXPECT_LT(first.weight, 0.1);
+  EXPECT_NEAR(first.distance, 7.0, 1e-3);
+  EXPECT_TRUE(first.inlier);  // the classification's band: r < q(0.95)
+
+  step(60);
+  close(61);
+  for (const LoopClosure& loop : engine.loopClosures()) {
+    EXPECT_GT(loop.weight, 0.9) << loop.edge.from;
+    EXPECT_LT(loop.distance, 2.0) << loop.edge.from;
+    EXPECT_FALSE(loop.undone) << loop.edge.from;
+  }
+}
+
 // A map too uncertain for a loop closure is tightened by a later one: the
 // block again, its odometry stating 15 times its noise, so the 800-pose
 // loop closure back to the start (A) is held back. The drive goes on east
