@@ -758,9 +758,9 @@ TEST(IncrementalGncEndToEnd, ARevisitIsJudgedAsOneRun) {
 // 3.8 at mu = 1) and stays at r = 7, inside the inlier gate of the reference
 // convention (q(0.95) = 7.81 on r) though rejected. The second agrees with
 // it, and the two together pay (49 / (1 + 6.25) = 6.8 against 7.6). A
-// rejected neighbour is one the engine rejected -- refused
-// by the objective or ruled out by the map -- whatever band of the
-// classification its residual falls in, so the two land as one run.
+// rejected neighbour is one the engine rejected -- ruled out by the map or
+// refused by the objective -- whatever band of the classification its
+// residual falls in, so the two land as one run.
 TEST(IncrementalGncEndToEnd, ARefusedLoopClosureInsideTheInlierGateCorroboratesItsNeighbour) {
   const double sigma_step = 0.0025, sigma_heading = 1e-5, sigma_loop = 0.01;
   IncrementalGnc engine(2, GncOptions());
