@@ -17,6 +17,11 @@ namespace agnc_pgo {
 namespace core {
 namespace {
 
+// Idle refinement: iterations per idle period at most, as optimize()'s
+// default. It stops earlier at convergence (convergence_step); the bound
+// only ends a period whose steps keep crossing the inlier gate.
+constexpr int kMaxIdleIterations = 20;
+
 // Plain least squares needs more iterations than a warm-started GNC step:
 // without graduation, a loop closure's whole correction lands at once.
 constexpr int kMinPlainIterations = 10;
@@ -351,6 +356,7 @@ UpdateStats IncrementalGnc::update(const std::function<void()>& first_estimate) 
     stats = first ? pass : combined(stats, pass);
     pending_ = std::move(next);
   }
+  if (stats.iterations > 0) rearmIdleRefinement();
   return stats;
 }
 
@@ -999,8 +1005,34 @@ UpdateStats IncrementalGnc::optimize(int max_iterations) {
   solver_.resetTrustRegion();
   settleWholeGraph(max_iterations, &stats);
   classifyAll();
+  if (stats.converged) idle_converged_ = true;
   total_iterations_ += stats.iterations;
   return stats;
+}
+
+void IncrementalGnc::rearmIdleRefinement() {
+  idle_converged_ = false;
+  idle_iterations_ = 0;
+}
+
+bool IncrementalGnc::refineIdle() {
+  if (idle_converged_ || !options_.window.global_refinement || !pending_.empty() || !needs_restart_.empty())
+    return false;
+  // The first iteration of an idle period starts the trust region afresh,
+  // as an update does; later ones keep the radius the steps earned.
+  if (idle_iterations_ == 0) solver_.resetTrustRegion();
+  UpdateStats stats;
+  solver_.setStepExtension(true);
+  const IterationResult r = iterateOnce(0, &stats);
+  solver_.setStepExtension(false);
+  ++idle_iterations_;
+  total_iterations_ += stats.iterations;
+  if (!r.accepted || convergenceStep(r) < options_.solver.convergence_step || idle_iterations_ >= kMaxIdleIterations) {
+    idle_converged_ = true;
+    unrefined_step_ = 0.0;
+    classifyAll();
+  }
+  return true;
 }
 
 }  // namespace core

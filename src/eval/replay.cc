@@ -94,6 +94,11 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
     free_pose_solves += static_cast<double>(stats.iterations) * (engine.numPoses() - stats.first_variable);
     if (options.progress) options.progress(k + 1, total);
   }
+  const auto idle_start = Clock::now();
+  while (engine.refineIdle()) ++result.idle_refinement_iterations;
+  const double idle_s = std::chrono::duration<double>(Clock::now() - idle_start).count();
+  result.idle_refinement_ms = idle_s * 1e3;
+  result.runtime_s += idle_s;
   collectFinalState(&engine, &result);
   if (result.solves > 0) result.mean_free_poses = free_pose_solves / result.solves;
   return result;

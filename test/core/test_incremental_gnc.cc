@@ -832,6 +832,41 @@ void feed(IncrementalGnc* engine, const std::vector<Edge>& edges, bool update) {
   }
 }
 
+// An update refines the whole graph only once its windows' net displacement
+// amounts to convergence_step per pose, so the estimate after the last
+// update is near the minimum of the engine's objective, not at it. Idle
+// time (refineIdle()) brings it there -- optimize() finds nothing left to
+// move -- then has nothing to do until an update solves again; odometry
+// alone or a loop closure still waiting for update() gives it none.
+TEST(IncrementalGnc, IdleRefinementConvergesWhatTheUpdatesLeft) {
+  const std::string world = std::string(AGNC_PGO_TEST_WORLD_DIR) + "/grid2d_400_seed1";
+  const PoseGraph graph = readG2o(world + ".g2o");
+  IncrementalGnc engine(2, GncOptions());
+  engine.addFirstPose(graph.poses[0], 1e8 * Eigen::Matrix3d::Identity());
+  feed(&engine, graph.edges, /*update=*/true);
+  const Poses after_updates = engine.poses();
+  int iterations = 0;
+  while (engine.refineIdle()) ++iterations;
+  const Poses after_idle = engine.poses();
+  engine.optimize(20);
+  const double left_by_updates = absoluteTrajectoryError(after_updates, engine.poses(), 2);
+  const double left_by_idle = absoluteTrajectoryError(after_idle, engine.poses(), 2);
+  EXPECT_GE(iterations, 1);
+  EXPECT_LE(iterations, 5);
+  EXPECT_GT(left_by_updates, 1e-3);
+  EXPECT_LT(left_by_idle, 0.05 * left_by_updates);
+  for (const LoopClosure& loop : engine.loopClosures()) EXPECT_TRUE(loop.inlier);
+
+  const int n = engine.numPoses();
+  engine.addOdometry(edge(n - 1, n, Pose::fromSE2(1, 0, 0)));
+  engine.update();
+  EXPECT_FALSE(engine.refineIdle());
+  engine.addLoopClosure(edge(n, n - 2, Pose::fromSE2(-2, 0, 0)));
+  EXPECT_FALSE(engine.refineIdle());  // waits for update()
+  engine.update();
+  EXPECT_TRUE(engine.refineIdle());
+}
+
 // A saved state -- the estimate and loopStates() -- restored into an engine
 // rebuilt from the same edges goes on as the saved engine does: the loop
 // closure rejected as unexplained (uncorroborated) is judged again once a

@@ -126,6 +126,17 @@ class IncrementalGnc {
   UpdateStats update(const std::function<void()>& first_estimate = {});
   // Iterates on the whole graph until convergence (at most `max_iterations`).
   UpdateStats optimize(int max_iterations = 20);
+  // For idle time (the node between messages, the replay at the end of a
+  // log): one whole-graph iteration towards the converged estimate that the
+  // updates leave unfinished -- an update refines the whole graph only once
+  // its windows' net displacement amounts to convergence_step per pose, and
+  // then for at most max_settle_iterations. Returns false, doing nothing,
+  // once the estimate has converged since the last update() that solved
+  // (or restore()), and while loop closures or overrides wait for update().
+  // At convergence every loop closure is classified again. One call costs
+  // one whole-graph iteration, so a message that arrives meanwhile waits
+  // for at most that.
+  bool refineIdle();
 
   void setOverride(int loop, LoopOverride mode);
   // Recomputes distance, weight and classification of every loop closure at
@@ -290,6 +301,7 @@ class IncrementalGnc {
   void settle(int first_variable, int max_iterations, double last_step, UpdateStats* stats);
   // settle() on the whole graph with step extension (refine(), optimize()).
   void settleWholeGraph(int max_iterations, UpdateStats* stats);
+  void rearmIdleRefinement();  // the estimate changed: refineIdle() has work
 
   int dimension_;
   GncOptions options_;
@@ -316,6 +328,10 @@ class IncrementalGnc {
   // that a fresh shortest path does (rulingOutPath).
   SparsePoseGraphSolver::PathTree path_tree_;
   double unrefined_step_ = 0.0;  // window displacements since the last whole-graph refinement
+  // refineIdle(): whether the estimate converged since the last solve, and
+  // the iterations spent on it so far.
+  bool idle_converged_ = true;
+  int idle_iterations_ = 0;
   NoiseScale translation_noise_, rotation_noise_;
   Poses dead_reckoning_;  // per pose: the odometry composed along its chain
   int next_noise_estimate_ = 1;  // samples at which the noise scale is estimated next

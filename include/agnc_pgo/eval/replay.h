@@ -33,7 +33,11 @@ struct LoopClosureResult {
 struct ReplayResult {
   Poses estimate;
   std::vector<LoopClosureResult> loop_closures;
-  double runtime_s = 0;         // total wall time of all updates
+  double runtime_s = 0;         // total wall time of all updates and of the idle refinement
+  // At the end of the log, what the node does once messages stop
+  // (IncrementalGnc::refineIdle() until it has nothing left to do).
+  double idle_refinement_ms = 0;
+  int idle_refinement_iterations = 0;
   long solves = 0;              // Gauss-Newton iterations over the run
   long gnc_steps = 0;
   Eigen::VectorXd noise_scale;  // IncrementalGnc::noiseScale() at the end (translation first)
