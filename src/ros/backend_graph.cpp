@@ -216,6 +216,23 @@ bool BackendGraph::guardedSolve(const std::string& what, const std::function<cor
   rememberGood();
   ++updates_;
   noteDecisions();
+  idle_refinement_failed_ = false;
+  return true;
+}
+
+bool BackendGraph::refineIdle(std::string* error) {
+  if (idle_refinement_failed_) return false;
+  try {
+    if (!engine_->refineIdle()) return false;
+    if (!finitePoses(*engine_)) throw std::runtime_error("the estimate became non-finite");
+  } catch (const std::exception& e) {
+    *error = std::string("idle refinement failed (") + e.what() + "); kept the last good estimate";
+    rollBack();
+    idle_refinement_failed_ = true;
+    return false;
+  }
+  rememberGood();
+  noteDecisions();
   return true;
 }
 

@@ -154,7 +154,8 @@ void BackendWorker::run() {
     std::deque<Item> batch;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      const double wait = std::min(0.05, 1.0 / parameters_.status_rate);
+      // While the idle refinement has work, messages are only looked for.
+      const double wait = idle_refining_ ? 0.0 : std::min(0.05, 1.0 / parameters_.status_rate);
       queue_cv_.wait_for(lock, std::chrono::duration<double>(wait),
                          [this] { return stopping_ || !queue_.empty(); });
       if (stopping_) return;
@@ -162,8 +163,9 @@ void BackendWorker::run() {
     }
     try {
       processBatch(&batch);
-      const double t = now();
       const bool idle = batch.empty();
+      if (idle) refineWhileIdle();
+      const double t = now();
       if (graph_dirty_ && (idle || t - last_graph_publish_ >= 1.0 / parameters_.visualization_rate))
         publish(true);
       if (t - last_status_publish_ >= 1.0 / parameters_.status_rate) publishStatus();
@@ -172,6 +174,28 @@ void BackendWorker::run() {
       warn(std::string("worker error: ") + e.what());
     }
   }
+}
+
+void BackendWorker::refineWhileIdle() {
+  // An update leaves the whole graph near convergence, not at it (it
+  // refines only once its windows have moved enough); with nothing queued,
+  // one iteration at a time brings it there, so a message that arrives
+  // waits for at most one. The result is published once converged.
+  if (paused_ || needs_update_) return;
+  std::string error;
+  if (graph_.refineIdle(&error)) {
+    idle_refining_ = true;
+    return;
+  }
+  if (!error.empty()) warn(error);
+  if (!idle_refining_) return;
+  idle_refining_ = false;
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.idle_refinements;
+  }
+  graph_dirty_ = true;
+  publish(true);
 }
 
 void BackendWorker::processBatch(std::deque<Item>* batch) {

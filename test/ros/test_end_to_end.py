@@ -80,6 +80,7 @@ class EndToEnd(unittest.TestCase):
         # Anytime: no loop closure waits longer for its first estimate than
         # for the finished update.
         self.assertGreater(s.first_estimates, 0)  # Intel's corrections call for whole-graph refinements
+        self.assertGreater(s.idle_refinements, 0)  # at the latest once the player has finished
         self.assertGreater(s.first_estimate_latency_ms_max, 0.0)
         self.assertLessEqual(s.first_estimate_latency_ms_max, s.latency_ms_max)
         self.assertLessEqual(s.first_estimate_latency_ms_p95, s.latency_ms_p95)

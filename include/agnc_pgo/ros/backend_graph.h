@@ -42,6 +42,7 @@ struct Counters {
   unsigned rejected_odometry = 0, rejected_loop_closures = 0, dropped_loop_closures = 0;
   unsigned failed_updates = 0;
   unsigned first_estimates = 0;  // updates that published a first estimate (anytime)
+  unsigned idle_refinements = 0;  // idle refinements run to convergence and published
   unsigned last_gnc_steps = 0;
   double last_update_ms = 0.0;
   std::string last_warning;
@@ -67,6 +68,11 @@ class BackendGraph {
   // only while every pose is finite.
   bool update(core::UpdateStats* stats, std::string* error, const std::function<void()>& first_estimate = {});
   bool optimize(core::UpdateStats* stats, std::string* error);
+  // One iteration of the engine's idle refinement
+  // (IncrementalGnc::refineIdle()) under the same guard; false when it had
+  // nothing to do or failed (then `error` is set and idle refinement waits
+  // for the next successful update, so a failing one is not retried).
+  bool refineIdle(std::string* error);
   // Throws std::invalid_argument. Back to AUTO, the loop closures whose
   // classification differs from before the overrides graduate again (their
   // decision was made against a map the overrides had bent); returns how many.
@@ -143,6 +149,7 @@ class BackendGraph {
   std::deque<LoopClosureInput> held_;
   Eigen::MatrixXd accumulated_covariance_;  // message covariances of skipped odometry
   LastGood last_good_;
+  bool idle_refinement_failed_ = false;  // since the last successful update
   // Every loop closure's classification just before the first of the
   // FORCE overrides now in force (empty when none is).
   std::vector<bool> decisions_before_overrides_;

@@ -100,6 +100,7 @@ class BackendWorker {
   void push(Item item);
   void run();
   void processBatch(std::deque<Item>* batch);
+  void refineWhileIdle();
   // processBatch()'s steps; each returns whether it added to the graph
   // (a keyframe, a loop closure), warning about and counting what it rejected.
   bool processOdometry(const OdometryInput& odometry);
@@ -143,6 +144,7 @@ class BackendWorker {
   bool paused_ = false;
   bool graph_dirty_ = false;
   bool needs_update_ = false;
+  bool idle_refining_ = false;  // an idle refinement has iterated and not yet been published
   double last_graph_publish_ = -1e9;
   double last_status_publish_ = -1e9;
   ros::Time last_update_;
