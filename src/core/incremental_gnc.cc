@@ -1016,8 +1016,7 @@ void IncrementalGnc::rearmIdleRefinement() {
 }
 
 bool IncrementalGnc::refineIdle() {
-  if (idle_converged_ || !options_.window.global_refinement || !pending_.empty() || !needs_restart_.empty())
-    return false;
+  if (!hasIdleWork()) return false;
   // The first iteration of an idle period starts the trust region afresh,
   // as an update does; later ones keep the radius the steps earned.
   if (idle_iterations_ == 0) solver_.resetTrustRegion();

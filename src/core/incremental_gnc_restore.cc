@@ -44,7 +44,6 @@ void IncrementalGnc::restore(const Poses& estimate, const std::vector<LoopClosur
   pending_.clear();
   needs_restart_.clear();
   classifyAll();
-  rearmIdleRefinement();  // a saved estimate need not be a converged one
 }
 
 }  // namespace core

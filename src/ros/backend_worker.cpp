@@ -155,7 +155,8 @@ void BackendWorker::run() {
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
       // While the idle refinement has work, messages are only looked for.
-      const double wait = idle_refining_ ? 0.0 : std::min(0.05, 1.0 / parameters_.status_rate);
+      const bool refining = !paused_ && graph_.refining();
+      const double wait = refining ? 0.0 : std::min(0.05, 1.0 / parameters_.status_rate);
       queue_cv_.wait_for(lock, std::chrono::duration<double>(wait),
                          [this] { return stopping_ || !queue_.empty(); });
       if (stopping_) return;
@@ -380,6 +381,7 @@ StatusInfo BackendWorker::status() const {
   s.noise_scale_translation = scale(0);
   s.noise_scale_rotation = scale(scale.size() - 1);
   s.paused = paused_;
+  s.refining = !paused_ && graph_.refining();
   return s;
 }
 

@@ -216,6 +216,7 @@ agnc_pgo::GraphStatus makeStatus(const StatusInfo& s) {
   msg.first_estimate_latency_ms_max = s.first_latency_max;
   msg.first_estimates = s.counters.first_estimates;
   msg.idle_refinements = s.counters.idle_refinements;
+  msg.refining = s.refining;
   msg.noise_scale_translation = s.noise_scale_translation;
   msg.noise_scale_rotation = s.noise_scale_rotation;
   msg.paused = s.paused;

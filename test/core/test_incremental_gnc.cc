@@ -856,6 +856,8 @@ TEST(IncrementalGnc, IdleRefinementConvergesWhatTheUpdatesLeft) {
   EXPECT_GT(left_by_updates, 1e-3);
   EXPECT_LT(left_by_idle, 0.05 * left_by_updates);
   for (const LoopClosure& loop : engine.loopClosures()) EXPECT_TRUE(loop.inlier);
+  engine.restore(engine.poses(), engine.loopStates());
+  EXPECT_FALSE(engine.hasIdleWork());  // a restored estimate stays as saved
 
   const int n = engine.numPoses();
   engine.addOdometry(edge(n - 1, n, Pose::fromSE2(1, 0, 0)));

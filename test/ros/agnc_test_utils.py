@@ -54,16 +54,16 @@ def wait_for_player(timeout=60.0):
 
 def wait_until_settled(status, timeout=60.0, quiet=1.0, predicate=lambda s: True):
     """Waits until every received message is in the graph, nothing graduates,
-    `predicate(status)` holds and the status has not changed for `quiet`
-    seconds."""
+    no idle refinement is under way, `predicate(status)` holds and the
+    status has not changed for `quiet` seconds."""
     deadline = time.time() + timeout
     last_key, since = None, time.time()
     while time.time() < deadline and not rospy.is_shutdown():
         s = status.msg
         if s is not None:
             key = (s.nodes, s.loop_closures, s.loop_closure_messages, s.odometry_messages,
-                   s.rejected_loop_closures, s.inliers, s.outliers)
-            ready = (s.graduating == 0 and s.held_loop_closures == 0 and
+                   s.rejected_loop_closures, s.inliers, s.outliers, s.idle_refinements)
+            ready = (s.graduating == 0 and s.held_loop_closures == 0 and not s.refining and
                      s.loop_closures + s.rejected_loop_closures == s.loop_closure_messages and
                      predicate(s))
             if key != last_key:

@@ -75,7 +75,10 @@ class SaveLoad(unittest.TestCase):
         # One manual override, so that the modes round-trip too.
         r = override(index=0, mode=FORCE_OUTLIER)
         self.assertTrue(r.success, r.message)
-        before = graph.wait(first_loop_forced_outlier, TIMEOUT, "graph with loop closure 0 forced outlier")
+        graph.wait(first_loop_forced_outlier, TIMEOUT, "graph with loop closure 0 forced outlier")
+        # The override's update is followed by an idle refinement: save what it converged to.
+        u.wait_until_settled(status, TIMEOUT, quiet=0.5)
+        before = graph.wait(first_loop_forced_outlier, TIMEOUT, "settled graph with loop closure 0 forced outlier")
         self.assertEqual(len(before.nodes), s.nodes)
         self.assertEqual(len(u.loop_edges(before)), s.loop_closures)
         self.assertFalse(any(e.graduating for e in u.loop_edges(before)))

@@ -44,6 +44,8 @@ class Services(unittest.TestCase):
         cls.loops = rospy.Publisher("/dataset_player/loop_closures", LoopClosure, queue_size=10)
 
     def test_1_pause_resume(self):
+        # Settled, idle refinement included: the estimate no longer moves by itself.
+        u.wait_until_settled(self.status, TIMEOUT, quiet=0.5)
         before = self.graph.wait(lambda m: not any(e.graduating for e in u.loop_edges(m)), TIMEOUT)
         r = self.pause(data=True)
         self.assertTrue(r.success, r.message)

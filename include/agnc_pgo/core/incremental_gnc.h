@@ -131,12 +131,17 @@ class IncrementalGnc {
   // updates leave unfinished -- an update refines the whole graph only once
   // its windows' net displacement amounts to convergence_step per pose, and
   // then for at most max_settle_iterations. Returns false, doing nothing,
-  // once the estimate has converged since the last update() that solved
-  // (or restore()), and while loop closures or overrides wait for update().
-  // At convergence every loop closure is classified again. One call costs
-  // one whole-graph iteration, so a message that arrives meanwhile waits
-  // for at most that.
+  // once the estimate has converged since the last update() that solved,
+  // and while loop closures or overrides wait for update() (restore()
+  // leaves a saved estimate as it was saved). At convergence every loop
+  // closure is classified again. One call costs one whole-graph iteration,
+  // so a message that arrives meanwhile waits for at most that.
   bool refineIdle();
+  // Whether refineIdle() has work: the estimate has not converged since
+  // the last update() that solved, and nothing waits for update().
+  bool hasIdleWork() const {
+    return !idle_converged_ && options_.window.global_refinement && pending_.empty() && needs_restart_.empty();
+  }
 
   void setOverride(int loop, LoopOverride mode);
   // Recomputes distance, weight and classification of every loop closure at

@@ -73,6 +73,8 @@ class BackendGraph {
   // nothing to do or failed (then `error` is set and idle refinement waits
   // for the next successful update, so a failing one is not retried).
   bool refineIdle(std::string* error);
+  // Idle refinement still has work (the estimate will move a little more).
+  bool refining() const { return engine_ && !idle_refinement_failed_ && engine_->hasIdleWork(); }
   // Throws std::invalid_argument. Back to AUTO, the loop closures whose
   // classification differs from before the overrides graduate again (their
   // decision was made against a map the overrides had bent); returns how many.

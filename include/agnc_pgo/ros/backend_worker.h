@@ -31,6 +31,7 @@ struct StatusInfo {
   // IncrementalGnc::noiseScale(), per block (1 = covariances as stated).
   double noise_scale_translation = 1.0, noise_scale_rotation = 1.0;
   bool paused = false;
+  bool refining = false;  // idle refinement under way (BackendGraph::refining())
 };
 
 // Implemented by the nodelet (publishers). Called from the worker thread.
