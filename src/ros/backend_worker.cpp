@@ -154,9 +154,12 @@ void BackendWorker::run() {
     std::deque<Item> batch;
     {
       std::unique_lock<std::mutex> lock(queue_mutex_);
-      // While the idle refinement has work, messages are only looked for.
+      // While the idle refinement has work, wait only until the gap is long
+      // enough for an iteration (refineWhileIdle()).
+      const double period = std::min(0.05, 1.0 / parameters_.status_rate);
       const bool refining = !paused_ && graph_.refining();
-      const double wait = refining ? 0.0 : std::min(0.05, 1.0 / parameters_.status_rate);
+      const double wait =
+          refining ? std::max(0.0, std::min(period, last_activity_ + idle_iteration_s_ - now())) : period;
       queue_cv_.wait_for(lock, std::chrono::duration<double>(wait),
                          [this] { return stopping_ || !queue_.empty(); });
       if (stopping_) return;
@@ -166,6 +169,7 @@ void BackendWorker::run() {
       processBatch(&batch);
       const bool idle = batch.empty();
       if (idle) refineWhileIdle();
+      else last_activity_ = now();
       const double t = now();
       if (graph_dirty_ && (idle || t - last_graph_publish_ >= 1.0 / parameters_.visualization_rate))
         publish(true);
@@ -181,10 +185,16 @@ void BackendWorker::refineWhileIdle() {
   // An update leaves the whole graph near convergence, not at it (it
   // refines only once its windows have moved enough); with nothing queued,
   // one iteration at a time brings it there, so a message that arrives
-  // waits for at most one. The result is published once converged.
+  // waits for at most one. An iteration starts only in a gap at least as
+  // long as the last one took: a stream of messages closer than that (a
+  // 200 Hz front-end on a large map) is not delayed, and the refinement
+  // runs when it pauses. The result is published once converged.
   if (paused_ || needs_update_) return;
+  if (now() - last_activity_ < idle_iteration_s_) return;
   std::string error;
+  const double start = now();
   if (graph_.refineIdle(&error)) {
+    idle_iteration_s_ = now() - start;
     idle_refining_ = true;
     return;
   }
