@@ -193,14 +193,13 @@ void BackendWorker::refineWhileIdle() {
   if (now() - last_activity_ < idle_iteration_s_) return;
   std::string error;
   const double start = now();
-  if (graph_.refineIdle(&error)) {
-    idle_iteration_s_ = now() - start;
-    idle_refining_ = true;
+  if (!graph_.refineIdle(&error)) {
+    if (!error.empty()) warn(error);  // rolled back; the loop publishes the dirty graph
+    graph_dirty_ = graph_dirty_ || !error.empty();
     return;
   }
-  if (!error.empty()) warn(error);
-  if (!idle_refining_) return;
-  idle_refining_ = false;
+  idle_iteration_s_ = now() - start;
+  if (graph_.refining()) return;  // not converged yet
   {
     std::lock_guard<std::mutex> lock(counters_mutex_);
     ++counters_.idle_refinements;

@@ -145,7 +145,6 @@ class BackendWorker {
   bool paused_ = false;
   bool graph_dirty_ = false;
   bool needs_update_ = false;
-  bool idle_refining_ = false;  // an idle refinement has iterated and not yet been published
   double last_activity_ = -1e9;  // when the worker last finished a non-empty batch [s, now()]
   double idle_iteration_s_ = 0.0;  // how long the last idle iteration took
   double last_graph_publish_ = -1e9;
