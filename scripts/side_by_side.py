@@ -117,8 +117,11 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("commits", nargs="+", help="commits to compare ('.' = this working tree's build)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per engine and input (default 3)")
-    parser.add_argument("--work", default=os.path.join(REPO, "build", "side_by_side"),
-                        help="worktrees of the commits (default build/side_by_side/)")
+    # Hidden: each worktree is a copy of this package, and roslaunch/rostest
+    # look for a launch or test file in every directory under the package's
+    # but hidden ones ("roslaunch agnc_pgo demo.launch" would find several).
+    parser.add_argument("--work", default=os.path.join(REPO, "build", ".side_by_side"),
+                        help="worktrees of the commits (default build/.side_by_side/)")
     parser.add_argument("--shared", default=SHARED, help="the shared datasets (default ../shared)")
     parser.add_argument("--filter", default="", help="regular expression on the input names (default: all)")
     args = parser.parse_args(argv)
