@@ -40,7 +40,7 @@ def main():
                   (time.time() - start, s.nodes, s.loop_closures, s.graduating), flush=True)
         if state["done"] and s is not None and g is not None:
             key = (s.nodes, s.loop_closures, s.inliers, s.outliers, s.loop_closure_messages)
-            settled = (s.graduating == 0 and s.held_loop_closures == 0 and
+            settled = (s.graduating == 0 and s.held_loop_closures == 0 and not s.refining and
                        s.loop_closures + s.rejected_loop_closures == s.loop_closure_messages and
                        len(g.nodes) == s.nodes and sum(1 for e in g.edges if e.type == e.LOOP_CLOSURE) == s.loop_closures)
             if key != last_key:
@@ -74,6 +74,8 @@ def main():
         ("first estimate p50/p95/max", "%.1f / %.1f / %.1f ms (anytime: before the whole graph follows; %d updates)" %
          (s.first_estimate_latency_ms_p50, s.first_estimate_latency_ms_p95, s.first_estimate_latency_ms_max,
           s.first_estimates)),
+        ("idle refinements", "%d%s (whole graph converged while nothing was queued)" %
+         (s.idle_refinements, ", one under way" if s.refining else "")),
         ("last update", "%.1f ms solver time" % s.last_update_ms),
     ]
     print("\nagnc_pgo back-end status")
