@@ -27,6 +27,11 @@ SHARED = os.path.normpath(os.path.join(REPO, "..", "shared"))
 TOOL = os.path.join("build", "devel", "lib", "agnc_pgo", "agnc_pgo_replay")
 
 
+# Hidden: each worktree is a copy of this package, and roslaunch/rostest
+# look for a launch or test file in every directory under the package's but
+# hidden ones ("roslaunch agnc_pgo demo.launch" would find several).
+DEFAULT_WORK = os.path.join(REPO, "build", ".side_by_side")
+
 def inputs(shared):
     irl = os.path.join(shared, "irl")
     g2o = os.path.join(shared, "datasets")
@@ -117,10 +122,7 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     parser.add_argument("commits", nargs="+", help="commits to compare ('.' = this working tree's build)")
     parser.add_argument("--repeat", type=int, default=3, help="runs per engine and input (default 3)")
-    # Hidden: each worktree is a copy of this package, and roslaunch/rostest
-    # look for a launch or test file in every directory under the package's
-    # but hidden ones ("roslaunch agnc_pgo demo.launch" would find several).
-    parser.add_argument("--work", default=os.path.join(REPO, "build", ".side_by_side"),
+    parser.add_argument("--work", default=DEFAULT_WORK,
                         help="worktrees of the commits (default build/.side_by_side/)")
     parser.add_argument("--shared", default=SHARED, help="the shared datasets (default ../shared)")
     parser.add_argument("--filter", default="", help="regular expression on the input names (default: all)")

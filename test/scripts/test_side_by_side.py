@@ -51,6 +51,17 @@ class TableRow(unittest.TestCase):
         self.assertEqual([c for c, _ in side_by_side.run_order(engines, 2)], ["a", "b", "c"])
 
 
+class Worktrees(unittest.TestCase):
+    def test_the_default_worktrees_are_hidden_from_roslaunch(self):
+        # roslaunch and rostest resolve "agnc_pgo demo.launch" by walking every
+        # directory under the package except hidden ones: a visible worktree
+        # (a copy of the package) made `scripts/demo.sh` fail with "multiple
+        # files named [demo.launch]".
+        relative = os.path.relpath(side_by_side.DEFAULT_WORK, REPO)
+        self.assertFalse(relative.startswith(".."), relative)
+        self.assertTrue(any(part.startswith(".") for part in relative.split(os.sep)), relative)
+
+
 class Arguments(unittest.TestCase):
     def refused(self, argv):
         with contextlib.redirect_stderr(io.StringIO()) as err, self.assertRaises(SystemExit) as exit_:
