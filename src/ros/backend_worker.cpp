@@ -297,6 +297,7 @@ void BackendWorker::solve() {
   const double start = now();
   first_published_ = false;
   const bool ok = graph_.update(&stats, &error, [this] { publishFirstEstimate(); });
+  finishing_update_ = false;
   const double end = now();
   {
     std::lock_guard<std::mutex> lock(counters_mutex_);
@@ -340,8 +341,14 @@ void BackendWorker::publishFirstEstimate() {
   const double published = now();
   for (double received : pending_latency_) first_latencies_ms_.add((published - received) * 1e3);
   first_published_ = true;
-  std::lock_guard<std::mutex> lock(counters_mutex_);
-  ++counters_.first_estimates;
+  {
+    std::lock_guard<std::mutex> lock(counters_mutex_);
+    ++counters_.first_estimates;
+  }
+  // Anytime, said in ~status: a subscriber learns that this estimate is a
+  // first one and the update goes on (refining until it ends).
+  finishing_update_ = true;
+  publishStatus();
 }
 
 void BackendWorker::publish(bool full) {
@@ -390,7 +397,7 @@ StatusInfo BackendWorker::status() const {
   s.noise_scale_translation = scale(0);
   s.noise_scale_rotation = scale(scale.size() - 1);
   s.paused = paused_;
-  s.refining = !paused_ && graph_.refining();
+  s.refining = finishing_update_ || (!paused_ && graph_.refining());
   return s;
 }
 

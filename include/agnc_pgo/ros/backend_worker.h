@@ -31,7 +31,10 @@ struct StatusInfo {
   // IncrementalGnc::noiseScale(), per block (1 = covariances as stated).
   double noise_scale_translation = 1.0, noise_scale_rotation = 1.0;
   bool paused = false;
-  bool refining = false;  // idle refinement under way (BackendGraph::refining())
+  // The estimate will still move: an update that published its first
+  // estimate is finishing (anytime), or an idle refinement is under way
+  // (BackendGraph::refining()).
+  bool refining = false;
 };
 
 // Implemented by the nodelet (publishers). Called from the worker thread.
@@ -154,6 +157,7 @@ class BackendWorker {
   LatencyHistogram latencies_ms_;  // bounded: a status costs O(1) however long the run
   LatencyHistogram first_latencies_ms_;  // receive -> first estimate published
   bool first_published_ = false;         // in the update running now
+  bool finishing_update_ = false;        // ... and it is still running (the status says so)
   // The noise scale last logged: a rise is logged once (it is re-estimated
   // only as the loop closures double, so rarely).
   double logged_noise_translation_ = 1.0, logged_noise_rotation_ = 1.0;
