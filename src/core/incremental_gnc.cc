@@ -12,10 +12,15 @@
 #include "agnc_pgo/core/loop_consistency.h"
 #include "agnc_pgo/core/loop_prediction.h"
 #include "agnc_pgo/core/shape_function.h"
+#include "incremental_gnc_internal.h"
 
 namespace agnc_pgo {
 namespace core {
 namespace {
+
+using internal::convergenceStep;
+using internal::newerEnd;
+using internal::olderEnd;
 
 // Idle refinement: iterations per idle period at most, as optimize()'s
 // default. It stops earlier at convergence (convergence_step); the bound
@@ -25,29 +30,6 @@ constexpr int kMaxIdleIterations = 20;
 // Plain least squares needs more iterations than a warm-started GNC step:
 // without graduation, a loop closure's whole correction lands at once.
 constexpr int kMinPlainIterations = 10;
-
-// The next Gauss-Newton step over this one per unit of |1 - rho| when the
-// model's error is cubic (convergenceStep).
-constexpr double kCubicNextStep = 1.5;
-
-// The step that decides convergence is the one the next iteration would
-// take, estimated from this one. A step the trust region cut short says
-// nothing about it. A full Gauss-Newton step leaves two things for the
-// next: what the linear solve left of the model's gradient (the relative
-// residual of H delta = -g; 0 after a factorisation) and the model's own
-// error, measured by the ratio rho of the actual to the predicted decrease.
-// For a cubic error the next step is 3/2 |1 - rho| times this one (in 1-D,
-// f = the quadratic model + t x^3 / 6: 1 - rho = t delta / (3 f''), the
-// next gradient t delta^2 / 2, so the next step is t delta^2 / (2 f'')).
-// Where the model is accurate the iterations stop after the step instead
-// of taking another just to see it small; where it is poor, or the solve
-// was loose, the step itself counts as before.
-double convergenceStep(const IterationResult& r) {
-  if (r.truncated) return std::numeric_limits<double>::infinity();
-  if (!SparsePoseGraphSolver::meaningfulDecrease(r.predicted_decrease, r.cost_before)) return r.mean_step;
-  const double rho = (r.cost_before - r.cost_after) / r.predicted_decrease;
-  return r.mean_step * std::min(1.0, kCubicNextStep * std::abs(1.0 - rho) + r.solve_residual);
-}
 
 // How far a pose moved: the norm of (translation, rotation angle), a stand-in
 // for the tangent-space norm of the step that took it there.
@@ -73,8 +55,6 @@ UpdateStats combined(const UpdateStats& a, const UpdateStats& b) {
   return out;
 }
 
-int olderEnd(const Edge& e) { return std::min(e.from, e.to); }
-int newerEnd(const Edge& e) { return std::max(e.from, e.to); }
 
 }  // namespace
 
@@ -97,6 +77,7 @@ void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& info
 }
 
 void IncrementalGnc::addPoseWithPrior(const Pose& value, const Eigen::MatrixXd& information) {
+  discardFoldCheck();  // it was for the graph before this
   if (!value.translation.allFinite() || !value.rotation.coeffs().allFinite() || !information.allFinite() ||
       value.rotation.norm() < 1e-9)
     throw std::invalid_argument("prior contains NaN, Inf or a zero quaternion");
@@ -128,6 +109,7 @@ void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {
 }
 
 void IncrementalGnc::addOdometry(const Edge& edge) {
+  discardFoldCheck();  // it was for the graph before this
   validateEdge(edge, /*allow_new_pose=*/true);
   const bool new_pose = edge.to == numPoses();
   if (new_pose) {
@@ -140,6 +122,7 @@ void IncrementalGnc::addOdometry(const Edge& edge) {
 }
 
 int IncrementalGnc::addLoopClosure(const Edge& edge) {
+  discardFoldCheck();  // it was for the graph before this
   validateEdge(edge, /*allow_new_pose=*/false);
   LoopClosure loop;
   loop.edge = edge;
@@ -329,6 +312,7 @@ void IncrementalGnc::applyOverride(LoopClosure* loop) {
 }
 
 void IncrementalGnc::setOverride(int index, LoopOverride mode) {
+  discardFoldCheck();  // it was for the graph before this
   if (index < 0 || index >= static_cast<int>(loops_.size()))
     throw std::invalid_argument("unknown loop closure " + std::to_string(index));
   loops_[index].override_mode = mode;
@@ -345,6 +329,7 @@ void IncrementalGnc::finishAt(LoopClosure* loop, double mu) {
 // ---------------------------------------------------------------- update()
 
 UpdateStats IncrementalGnc::update(const std::function<void()>& first_estimate) {
+  discardFoldCheck();  // it was for the graph before this
   UpdateStats stats;
   std::function<void()> not_called_yet = first_estimate;
   // A loop closure the map explained tightens the map around its cycle:
@@ -426,11 +411,11 @@ IncrementalGnc::Snapshot IncrementalGnc::snapshot(int first) const {
   return s;
 }
 
-std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePlan& plan) {
-  for (int i = before.first; i < numPoses(); ++i) solver_.setPose(i, before.estimate[i - before.first]);
+void IncrementalGnc::restoreState(const Snapshot& s) {
+  for (int i = s.first; i < numPoses(); ++i) solver_.setPose(i, s.estimate[i - s.first]);
   for (size_t k = 0; k < loops_.size(); ++k) {
     LoopClosure& loop = loops_[k];
-    const Snapshot::LoopState& saved = before.loops[k];
+    const Snapshot::LoopState& saved = s.loops[k];
     loop.graduation = saved.graduation;
     loop.distance = saved.distance;
     loop.weight = saved.weight;
@@ -442,6 +427,10 @@ std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePl
     setDormant(&loop, saved.dormant);
     setFullWeight(&loop, saved.full_weight);
   }
+}
+
+std::vector<int> IncrementalGnc::rollBack(const Snapshot& before, const UpdatePlan& plan) {
+  restoreState(before);
   // As if the map had not explained them (judgeFar): rejected at mu = 1; a
   // later corroborating loop closure starts another trial with them.
   for (int index : plan.cycles) rejectAsUndone(index);
@@ -751,18 +740,6 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
   const int radius = options_.rejection.support_radius;
   if (radius == 0) return partners;
   const Edge& e = loops_[index].edge;
-  const auto pose = [this](int id) { return solver_.pose(id); };
-  const StepCovariance step = odometryStep();
-  // Under the noise scale (noiseScale()), every covariance of the cycle widened.
-  const bool widened = solver_.noiseScaled();
-  const auto widenedEdge = [this](Edge edge) {
-    edge.information = widenedInformation(edge.information);
-    return edge;
-  };
-  const StepCovariance widened_step = [this, &step](int p) -> Eigen::MatrixXd {
-    const Eigen::MatrixXd stated = step(p);
-    return stated.size() == 0 ? stated : widenedCovariance(stated);
-  };
   const int last = std::min(newerEnd(e) + radius, static_cast<int>(loops_by_newer_pose_.size()) - 1);
   for (int p = std::max(0, newerEnd(e) - radius); p <= last; ++p) {
     for (int other : loops_by_newer_pose_[p]) {
@@ -779,13 +756,31 @@ std::vector<int> IncrementalGnc::corroboratingLoops(int index, const std::vector
       if (other == index || candidate.override_mode != LoopOverride::kAuto || !(rejected || arriving) ||
           !areNeighbours(e, candidate.edge, radius))
         continue;
-      const double d = widened ? cycleDistance(dimension_, widenedEdge(e), widenedEdge(candidate.edge), pose,
-                                               widened_step, variance_factor())
-                               : cycleDistance(dimension_, e, candidate.edge, pose, step, variance_factor());
-      if (d * d < schedule_.thresholds().q95) partners.push_back(other);
+      if (pairAgrees(e, candidate.edge, variance_factor())) partners.push_back(other);
     }
   }
   return partners;
+}
+
+bool IncrementalGnc::pairAgrees(const Edge& a, const Edge& b, double variance_factor) const {
+  const auto pose = [this](int id) { return solver_.pose(id); };
+  const StepCovariance step = odometryStep();
+  double d;
+  if (solver_.noiseScaled()) {
+    // Under the noise scale (noiseScale()), every covariance of the cycle widened.
+    const auto widenedEdge = [this](Edge edge) {
+      edge.information = widenedInformation(edge.information);
+      return edge;
+    };
+    const StepCovariance widened_step = [this, &step](int p) -> Eigen::MatrixXd {
+      const Eigen::MatrixXd stated = step(p);
+      return stated.size() == 0 ? stated : widenedCovariance(stated);
+    };
+    d = cycleDistance(dimension_, widenedEdge(a), widenedEdge(b), pose, widened_step, variance_factor);
+  } else {
+    d = cycleDistance(dimension_, a, b, pose, step, variance_factor);
+  }
+  return d * d < schedule_.thresholds().q95;
 }
 
 std::vector<int> IncrementalGnc::consistentRun(int index, const std::vector<int>& far,
@@ -1001,6 +996,7 @@ void IncrementalGnc::settleWholeGraph(int max_iterations, UpdateStats* stats) {
 }
 
 UpdateStats IncrementalGnc::optimize(int max_iterations) {
+  discardFoldCheck();  // it was for the graph before this
   UpdateStats stats;
   solver_.resetTrustRegion();
   settleWholeGraph(max_iterations, &stats);
@@ -1013,10 +1009,15 @@ UpdateStats IncrementalGnc::optimize(int max_iterations) {
 void IncrementalGnc::rearmIdleRefinement() {
   idle_converged_ = false;
   idle_iterations_ = 0;
+  fold_check_due_ = options_.schedule.kind != ScheduleKind::kNone;
 }
 
 bool IncrementalGnc::refineIdle() {
   if (!hasIdleWork()) return false;
+  if (idle_converged_) {
+    stepFoldCheck();
+    return true;
+  }
   // The first iteration of an idle period starts the trust region afresh,
   // as an update does; later ones keep the radius the steps earned.
   if (idle_iterations_ == 0) solver_.resetTrustRegion();

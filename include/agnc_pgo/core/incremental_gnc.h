@@ -13,6 +13,7 @@
 
 #include <functional>
 #include <limits>
+#include <memory>
 #include <unordered_map>
 #include <vector>
 
@@ -134,13 +135,20 @@ class IncrementalGnc {
   // once the estimate has converged since the last update() that solved,
   // and while loop closures or overrides wait for update() (restore()
   // leaves a saved estimate as it was saved). At convergence every loop
-  // closure is classified again. One call costs one whole-graph iteration,
-  // so a message that arrives meanwhile waits for at most that.
+  // closure is classified again. Then, if kept loop closures stand that no
+  // neighbour corroborates, the fold check (incremental_gnc_fold_check.cc):
+  // a second estimate from a global start, adopted where the robust
+  // objective ends lower. One call costs one whole-graph iteration (or the
+  // global initialisation), so a message that arrives meanwhile waits for
+  // at most that; between calls the engine holds its own estimate, and any
+  // change to the graph discards an unfinished check.
   bool refineIdle();
-  // Whether refineIdle() has work: the estimate has not converged since
-  // the last update() that solved, and nothing waits for update().
+  // Whether refineIdle() has work: the estimate has not converged, or has
+  // not been checked, since the last update() that solved, and nothing
+  // waits for update().
   bool hasIdleWork() const {
-    return !idle_converged_ && options_.window.global_refinement && pending_.empty() && needs_restart_.empty();
+    return (!idle_converged_ || fold_check_due_) && options_.window.global_refinement && pending_.empty() &&
+           needs_restart_.empty();
   }
 
   void setOverride(int loop, LoopOverride mode);
@@ -308,6 +316,45 @@ class IncrementalGnc {
   void settleWholeGraph(int max_iterations, UpdateStats* stats);
   void rearmIdleRefinement();  // the estimate changed: refineIdle() has work
 
+  // The fold check (incremental_gnc_fold_check.cc). An estimate reached
+  // update by update can end in a fold -- a worse minimum of the robust
+  // objective -- while its classification is nearly right: on a map with
+  // heavy rotation noise, loop closures the map explained at few-to-one
+  // odds bend it, and the ones after are judged on the bent map. The check
+  // tests the hypothesis that the kept loop closures no neighbour
+  // corroborates are what bent it: least squares over the odometry and the
+  // corroborated ones from a global initialisation (the reference's own
+  // safeguard against drift, global_initialization.h), then the robust
+  // objective over every loop closure from there (Geman-McClure's weights,
+  // none left out), then the engine's classification; the second estimate
+  // replaces the first only if it ends lower on the objective.
+  struct FoldCheck {
+    enum class Stage { kLeastSquares, kRobust, kClassified };
+    Stage stage = Stage::kLeastSquares;
+    Snapshot alternative;  // the second estimate and its loop closures' states, between calls
+    int iterations = 0;    // in this stage
+  };
+  // One call's work (refineIdle()): the start, or one iteration of the
+  // second estimate; at the end of its last stage, the verdict.
+  void stepFoldCheck();
+  // Sets the global start and the least-squares stage's weights; false if
+  // there is nothing to test or no global start (a pose the corroborated
+  // loop closures and the odometry do not connect to pose 0).
+  bool startFoldCheck();
+  // Per loop closure: kept (inlier, automatic) and agreeing with a kept
+  // neighbour (pairAgrees).
+  std::vector<bool> corroboratedInliers() const;
+  // Whether PCM's pairwise test accepts two neighbouring loop closures
+  // (loop_consistency.h) at the current estimate, under the noise scale and
+  // this variance factor.
+  bool pairAgrees(const Edge& a, const Edge& b, double variance_factor) const;
+  // Poses (from s.first) and every loop closure's state as in s.
+  void restoreState(const Snapshot& s);
+  // The second estimate stands: the loop closures it keeps are no longer
+  // rejected ones, those it rejects no longer landed.
+  void adoptFoldCheck();
+  void discardFoldCheck() { fold_check_.reset(); }
+
   int dimension_;
   GncOptions options_;
   GraduationSchedule schedule_;
@@ -337,6 +384,8 @@ class IncrementalGnc {
   // the iterations spent on it so far.
   bool idle_converged_ = true;
   int idle_iterations_ = 0;
+  bool fold_check_due_ = false;  // since the last update() that solved
+  std::unique_ptr<FoldCheck> fold_check_;  // under way
   NoiseScale translation_noise_, rotation_noise_;
   Poses dead_reckoning_;  // per pose: the odometry composed along its chain
   int next_noise_estimate_ = 1;  // samples at which the noise scale is estimated next
