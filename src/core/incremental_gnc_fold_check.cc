@@ -109,6 +109,8 @@ bool IncrementalGnc::startFoldCheck() {
     start = globalInitialization(graph);
   } catch (const std::invalid_argument&) {
     return false;  // a chain that only uncorroborated loop closures attach
+  } catch (const std::runtime_error&) {
+    return false;  // a singular linear system: no global start
   }
   for (int i = 0; i < numPoses(); ++i) solver_.setPose(i, start[i]);
   for (size_t k = 0; k < loops_.size(); ++k) {
