@@ -55,7 +55,6 @@ UpdateStats combined(const UpdateStats& a, const UpdateStats& b) {
   return out;
 }
 
-
 }  // namespace
 
 IncrementalGnc::IncrementalGnc(int dimension, const GncOptions& options)
