@@ -483,6 +483,7 @@ bool IncrementalGnc::releaseAndLand(const std::vector<int>& group, const std::ve
   for (int index : released) plan.first = std::min(plan.first, olderEnd(loops_[index].edge));
   plan.oldest = plan.first;
   plan.moves = true;
+  stats->first_variable = std::min(stats->first_variable, plan.first);
   const Snapshot before = snapshot(plan.first);
   for (int index : released) solver_.setMode(loops_[index].factor, FactorMode::kDisabled);
   for (int index : group) land(index, &plan);
