@@ -325,8 +325,9 @@ class IncrementalGnc {
   // corroborates are what bent it: least squares over the odometry and the
   // corroborated ones from a global initialisation (the reference's own
   // safeguard against drift, global_initialization.h), then the robust
-  // objective over every loop closure from there (Geman-McClure's weights,
-  // none left out), then the engine's classification; the second estimate
+  // objective over every loop closure from there (Geman-McClure's weights;
+  // only those below dormant_weight left out), then the engine's
+  // classification; the second estimate
   // replaces the first only if it ends lower on the objective.
   struct FoldCheck {
     enum class Stage { kLeastSquares, kRobust, kClassified };
