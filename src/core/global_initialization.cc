@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <memory>
 #include <numeric>
 #include <stdexcept>
 #include <string>
@@ -129,53 +130,74 @@ std::vector<double> treeHeadings(const Problem& p, const Adjacency& adjacent, in
 
 // Weighted linear least squares over one k-vector per pose, built from
 // relative constraints x_j - M x_i = d with weight W; gauge poses are known.
+// The matrix depends only on the terms' M and W, so it is factorised once
+// and solved for every right-hand side asked (the headings are solved
+// against several trees, each its own d and gauge values).
 class RelativeLeastSquares {
  public:
-  RelativeLeastSquares(const Problem& p, int k, const Eigen::VectorXd& known)
-      : k_(k), known_(known), index_(p.num_poses, -1) {
-    int next = 0;
+  RelativeLeastSquares(const Problem& p, int k) : k_(k), index_(p.num_poses, -1) {
     for (int i = 0; i < p.num_poses; ++i)
-      if (!p.fixed[i]) index_[i] = next++;
-    rhs_ = Eigen::VectorXd::Zero(next * k_);
+      if (!p.fixed[i]) index_[i] = unknowns_++;
   }
 
-  void add(int i, int j, const Eigen::MatrixXd& M, const Eigen::VectorXd& d, const Eigen::MatrixXd& W) {
+  // Adds the term x_j - M x_i = d; its d comes with solve(), in add() order.
+  void add(int i, int j, const Eigen::MatrixXd& M, const Eigen::MatrixXd& W) {
     const int vi = index_[i], vj = index_[j];
-    const Eigen::MatrixXd MtW = M.transpose() * W;
-    if (vj >= 0) {
-      addBlock(vj, vj, W);
-      rhs_.segment(vj * k_, k_) += W * d;
-      if (vi < 0) rhs_.segment(vj * k_, k_) += W * M * known_.segment(i * k_, k_);
-    }
-    if (vi >= 0) {
-      addBlock(vi, vi, MtW * M);
-      rhs_.segment(vi * k_, k_) -= MtW * d;
-      if (vj < 0) rhs_.segment(vi * k_, k_) += MtW * known_.segment(j * k_, k_);
-    }
+    Term term{i, j, W, M.transpose() * W};
+    if (vj >= 0) addBlock(vj, vj, W);
+    if (vi >= 0) addBlock(vi, vi, term.MtW * M);
     if (vi >= 0 && vj >= 0) {
-      addBlock(vi, vj, -MtW);
-      addBlock(vj, vi, -MtW.transpose());
+      addBlock(vi, vj, -term.MtW);
+      addBlock(vj, vi, -term.MtW.transpose());
     }
+    terms_.push_back(std::move(term));
   }
 
-  // Returns every pose's vector, gauge poses at their known values.
-  Eigen::VectorXd solve(const char* what) const {
-    if (rhs_.size() == 0) return known_;  // every pose is a gauge pose
-    Eigen::SparseMatrix<double> H(rhs_.size(), rhs_.size());
-    H.setFromTriplets(triplets_.begin(), triplets_.end());
-    Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> ldlt(H);
-    Eigen::VectorXd x;
-    if (ldlt.info() == Eigen::Success) x = ldlt.solve(rhs_);
-    if (ldlt.info() != Eigen::Success || !x.allFinite() || ldlt.vectorD().minCoeff() <= 0.0)
-      throw std::runtime_error(std::string("globalInitialization: the ") + what +
-                               " system is singular (an edge with zero information?)");
-    Eigen::VectorXd all = known_;
+  // Every pose's vector given the terms' d (stacked in add() order) and the
+  // gauge poses' values in `known`.
+  Eigen::VectorXd solve(const Eigen::VectorXd& d, const Eigen::VectorXd& known, const char* what) {
+    if (unknowns_ == 0) return known;  // every pose is a gauge pose
+    if (!ldlt_) factorize(what);
+    Eigen::VectorXd rhs = Eigen::VectorXd::Zero(unknowns_ * k_);
+    for (size_t t = 0; t < terms_.size(); ++t) {
+      const Term& term = terms_[t];
+      const int vi = index_[term.i], vj = index_[term.j];
+      const auto dt = d.segment(t * k_, k_);
+      if (vj >= 0) {
+        rhs.segment(vj * k_, k_) += term.W * dt;
+        if (vi < 0) rhs.segment(vj * k_, k_) += term.MtW.transpose() * known.segment(term.i * k_, k_);
+      }
+      if (vi >= 0) {
+        rhs.segment(vi * k_, k_) -= term.MtW * dt;
+        if (vj < 0) rhs.segment(vi * k_, k_) += term.MtW * known.segment(term.j * k_, k_);
+      }
+    }
+    const Eigen::VectorXd x = ldlt_->solve(rhs);
+    if (ldlt_->info() != Eigen::Success || !x.allFinite()) throw singular(what);
+    Eigen::VectorXd all = known;
     for (size_t i = 0; i < index_.size(); ++i)
       if (index_[i] >= 0) all.segment(i * k_, k_) = x.segment(index_[i] * k_, k_);
     return all;
   }
 
  private:
+  struct Term {
+    int i, j;
+    Eigen::MatrixXd W, MtW;  // the weight and M^T W
+  };
+
+  static std::runtime_error singular(const char* what) {
+    return std::runtime_error(std::string("globalInitialization: the ") + what +
+                              " system is singular (an edge with zero information?)");
+  }
+
+  void factorize(const char* what) {
+    Eigen::SparseMatrix<double> H(unknowns_ * k_, unknowns_ * k_);
+    H.setFromTriplets(triplets_.begin(), triplets_.end());
+    ldlt_ = std::make_unique<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>>(H);
+    if (ldlt_->info() != Eigen::Success || ldlt_->vectorD().minCoeff() <= 0.0) throw singular(what);
+  }
+
   void addBlock(int row, int col, const Eigen::MatrixXd& block) {
     for (int r = 0; r < k_; ++r)
       for (int c = 0; c < k_; ++c)
@@ -183,10 +205,11 @@ class RelativeLeastSquares {
   }
 
   int k_;
-  Eigen::VectorXd known_;
+  int unknowns_ = 0;
   std::vector<int> index_;  // id -> unknown index, -1 for a gauge pose
-  Eigen::VectorXd rhs_;
+  std::vector<Term> terms_;
   std::vector<Eigen::Triplet<double>> triplets_;
+  std::unique_ptr<Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>>> ldlt_;  // on the first solve
 };
 
 // Information of the rotation part alone (the translation marginalised out):
@@ -218,14 +241,16 @@ std::vector<Eigen::Matrix<double, D, 1>> solvePositions(
     const Problem& p, const std::vector<Eigen::Matrix<double, D, D>>& rotations) {
   Eigen::VectorXd known = Eigen::VectorXd::Zero(p.num_poses * D);
   for (int i = 0; i < p.num_poses; ++i) known.segment<D>(i * D) = p.values[i].translation.head<D>();
-  RelativeLeastSquares system(p, D, known);
+  RelativeLeastSquares system(p, D);
+  Eigen::VectorXd d(p.edges.size() * D);
   const Eigen::MatrixXd identity = Eigen::MatrixXd::Identity(D, D);
-  for (const Edge* e : p.edges) {
+  for (size_t k = 0; k < p.edges.size(); ++k) {
+    const Edge* e = p.edges[k];
     const Eigen::Matrix<double, D, D>& R = rotations[e->from];
-    const Eigen::MatrixXd W = R * translationInformation(e->information, D) * R.transpose();
-    system.add(e->from, e->to, identity, R * e->measurement.translation.head<D>(), W);
+    system.add(e->from, e->to, identity, R * translationInformation(e->information, D) * R.transpose());
+    d.segment<D>(k * D) = R * e->measurement.translation.head<D>();
   }
-  const Eigen::VectorXd x = system.solve("position");
+  const Eigen::VectorXd x = system.solve(d, known, "position");
   std::vector<Eigen::Matrix<double, D, 1>> positions(p.num_poses);
   for (int i = 0; i < p.num_poses; ++i) positions[i] = x.segment<D>(i * D);
   return positions;
@@ -238,30 +263,40 @@ struct Headings {
   double cost = 0;              // weighted squared angle residual of the solve
 };
 
+// The linear angle problem: one term per edge, weighted by its marginal
+// rotation information; the trees only change its right-hand side.
+struct AngleSystem {
+  explicit AngleSystem(const Problem& p) : system(p, 1), weight(p.edges.size()) {
+    for (size_t k = 0; k < p.edges.size(); ++k) {
+      const Edge& e = *p.edges[k];
+      weight[k] = marginalRotationInformation(e.information, 1)(0, 0);
+      system.add(e.from, e.to, Eigen::MatrixXd::Identity(1, 1), Eigen::MatrixXd::Constant(1, 1, weight[k]));
+    }
+  }
+  RelativeLeastSquares system;
+  std::vector<double> weight;  // per edge
+};
+
 // Headings from the linear angle problem, each measured angle taken in the
 // 2*pi branch within (-pi, pi] of what the tree says.
-Headings solveHeadingsAgainst(const Problem& p, const std::vector<double>& tree) {
+Headings solveHeadingsAgainst(const Problem& p, AngleSystem* angles, const std::vector<double>& tree) {
   Eigen::VectorXd known(p.num_poses);
   for (int i = 0; i < p.num_poses; ++i) {
     // A gauge pose keeps its heading, taken in the tree's 2*pi branch.
     known(i) = p.fixed[i] ? tree[i] + wrapAngle(p.values[i].yaw() - tree[i]) : tree[i];
   }
-  RelativeLeastSquares system(p, 1, known);
-  std::vector<double> regularised(p.edges.size()), weight(p.edges.size());
-  const Eigen::MatrixXd one = Eigen::MatrixXd::Identity(1, 1);
+  Eigen::VectorXd regularised(p.edges.size());
   for (size_t k = 0; k < p.edges.size(); ++k) {
     const Edge& e = *p.edges[k];
     const double tree_difference = tree[e.to] - tree[e.from];
-    regularised[k] = tree_difference - wrapAngle(tree_difference - e.measurement.yaw());
-    weight[k] = marginalRotationInformation(e.information, 1)(0, 0);
-    system.add(e.from, e.to, one, Eigen::VectorXd::Constant(1, regularised[k]), weight[k] * one);
+    regularised(k) = tree_difference - wrapAngle(tree_difference - e.measurement.yaw());
   }
-  const Eigen::VectorXd x = system.solve("angle");
+  const Eigen::VectorXd x = angles->system.solve(regularised, known, "angle");
   Headings h;
   h.heading.assign(x.data(), x.data() + x.size());
   for (size_t k = 0; k < p.edges.size(); ++k) {
-    const double r = x(p.edges[k]->to) - x(p.edges[k]->from) - regularised[k];
-    h.cost += weight[k] * r * r;
+    const double r = x(p.edges[k]->to) - x(p.edges[k]->from) - regularised(k);
+    h.cost += angles->weight[k] * r * r;
   }
   return h;
 }
@@ -276,11 +311,12 @@ Headings solveHeadingsAgainst(const Problem& p, const std::vector<double>& tree)
 constexpr int kTreeRoots = 8;
 
 std::vector<double> solveHeadings(const Problem& p) {
-  Headings best = solveHeadingsAgainst(p, treeHeadings(p, odometryTree(p), p.roots.front()));
+  AngleSystem angles(p);
+  Headings best = solveHeadingsAgainst(p, &angles, treeHeadings(p, odometryTree(p), p.roots.front()));
   const Adjacency adjacent = allEdges(p);
   for (int k = 0; k < kTreeRoots; ++k) {
     const int root = static_cast<int>(static_cast<long>(k) * p.num_poses / kTreeRoots);
-    Headings candidate = solveHeadingsAgainst(p, treeHeadings(p, adjacent, root));
+    Headings candidate = solveHeadingsAgainst(p, &angles, treeHeadings(p, adjacent, root));
     if (candidate.cost < best.cost) best = std::move(candidate);
   }
   return best.heading;
@@ -305,31 +341,31 @@ Eigen::Matrix3d projectToRotation(const Eigen::Matrix3d& m) {
   return svd.matrixU() * d * svd.matrixV().transpose();
 }
 
-// Chordal relaxation: vec(R_j) = (R_ij^T kron I3) vec(R_i), column-major vec.
+// Chordal relaxation: min sum_ij w_ij |R_j - R_i R_ij|_F^2 over unconstrained
+// 3x3 matrices, then each projected onto SO(3). With an isotropic weight the
+// cost separates by rows: row r of R_j is row r of R_i times R_ij, so the
+// three rows are three solves of one 3-vector system, R_ij^T as its M.
 std::vector<Eigen::Matrix3d> solveRotations(const Problem& p) {
   treeHeadings(p, odometryTree(p), p.roots.front());  // connectivity check only
-  Eigen::VectorXd known(p.num_poses * 9);
-  for (int i = 0; i < p.num_poses; ++i) {
-    const Eigen::Matrix3d R = p.values[i].rotation.normalized().toRotationMatrix();
-    known.segment<9>(i * 9) = Eigen::Map<const Eigen::Matrix<double, 9, 1>>(R.data());
-  }
-  RelativeLeastSquares system(p, 9, known);
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(9);
+  std::vector<Eigen::Matrix3d> gauge(p.num_poses);
+  for (int i = 0; i < p.num_poses; ++i) gauge[i] = p.values[i].rotation.normalized().toRotationMatrix();
+  RelativeLeastSquares system(p, 3);
   for (const Edge* e : p.edges) {
     const Eigen::Matrix3d Rij = e->measurement.rotation.normalized().toRotationMatrix();
-    Eigen::MatrixXd M = Eigen::MatrixXd::Zero(9, 9);
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) M.block<3, 3>(3 * a, 3 * b) = Rij(b, a) * Eigen::Matrix3d::Identity();
     // Isotropic weight: the chordal cost cannot take a rotation covariance's shape.
     const double w = marginalRotationInformation(e->information, 3).trace() / 3.0;
-    system.add(e->from, e->to, M, zero, w * Eigen::MatrixXd::Identity(9, 9));
+    system.add(e->from, e->to, Rij.transpose(), w * Eigen::MatrixXd::Identity(3, 3));
   }
-  const Eigen::VectorXd x = system.solve("chordal rotation");
+  std::vector<Eigen::Matrix3d> relaxed(p.num_poses);
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(p.edges.size() * 3);
+  for (int row = 0; row < 3; ++row) {
+    Eigen::VectorXd known(p.num_poses * 3);
+    for (int i = 0; i < p.num_poses; ++i) known.segment<3>(i * 3) = gauge[i].row(row).transpose();
+    const Eigen::VectorXd x = system.solve(zero, known, "chordal rotation");
+    for (int i = 0; i < p.num_poses; ++i) relaxed[i].row(row) = x.segment<3>(i * 3).transpose();
+  }
   std::vector<Eigen::Matrix3d> rotations(p.num_poses);
-  for (int i = 0; i < p.num_poses; ++i) {
-    const Eigen::Matrix3d relaxed = Eigen::Map<const Eigen::Matrix3d>(x.data() + 9 * i);
-    rotations[i] = p.fixed[i] ? relaxed : projectToRotation(relaxed);
-  }
+  for (int i = 0; i < p.num_poses; ++i) rotations[i] = p.fixed[i] ? relaxed[i] : projectToRotation(relaxed[i]);
   return rotations;
 }
 
