@@ -360,6 +360,14 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
     // where the map bends towards them. The trial stands only if it ends
     // lower on the objective than not landing them at all.
     const bool trial = !plan.cycles.empty() && options_.schedule.kind != ScheduleKind::kNone;
+    // Anytime: a landing frees whole cycles and can take long on a large
+    // map. If the landings are all this update moves, the estimate before
+    // the trial already holds everything else new (the odometry, the
+    // rejections), and it is the estimate should the trial be refused.
+    if (trial && *first_estimate && onlyLandings(plan)) {
+      (*first_estimate)();
+      *first_estimate = nullptr;
+    }
     // Judged on the window, which holds the whole cycle of what landed,
     // before the whole-graph refinement spreads the result.
     const Snapshot before = trial ? snapshot(plan.first) : Snapshot();
@@ -394,6 +402,13 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
   total_iterations_ += stats->iterations;
   total_gnc_steps_ += stats->gnc_steps;
   return next;
+}
+
+bool IncrementalGnc::onlyLandings(const UpdatePlan& plan) const {
+  if (!plan.accepted.empty() || !needs_restart_.empty()) return false;
+  for (int index : plan.to_graduate)
+    if (std::find(plan.cycles.begin(), plan.cycles.end(), index) == plan.cycles.end()) return false;
+  return true;
 }
 
 IncrementalGnc::Snapshot IncrementalGnc::snapshot(int first) const {

@@ -711,6 +711,37 @@ TEST(IncrementalGncEndToEnd, ALoneLoopClosureAfterALongDriftClosesTheMap) {
   EXPECT_LT(absoluteTrajectoryError(drive.engine.poses(), drive.optimum().poses, 2), 0.01 * drift);
 }
 
+// Anytime: landing the loop closure frees the whole block and iterates to
+// convergence, which on a large map takes long. The landing is all the
+// update moves, so the estimate before its trial comes first (the odometry's,
+// as it stays should the trial be refused); the update then ends where it
+// ends without the report.
+TEST(IncrementalGncEndToEnd, ALandingReportsTheEstimateBeforeItsTrialFirst) {
+  BlockDrive reported(1.0), silent(1.0);
+  const Poses before = reported.engine.poses();
+  Edge closing = edge(BlockDrive::kPoses, 0, reported.truth[BlockDrive::kPoses].inverse() * reported.truth[0]);
+  closing.information = reported.information;
+  closing.kind = EdgeKind::kLoopClosure;
+  int calls = 0;
+  Poses first;
+  reported.engine.addLoopClosure(closing);
+  const UpdateStats stats = reported.engine.update([&] {
+    ++calls;
+    first = reported.engine.poses();
+  });
+  silent.engine.addLoopClosure(closing);
+  silent.engine.update();
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(stats.first_variable, 0);  // the whole cycle was free
+  ASSERT_EQ(first.size(), before.size());
+  for (size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(first[i].translation, before[i].translation) << "pose " << i;
+    EXPECT_EQ(reported.engine.pose(i).translation, silent.engine.pose(i).translation) << "pose " << i;
+  }
+  EXPECT_TRUE(reported.engine.loopClosures()[0].inlier);
+  EXPECT_GT((reported.engine.pose(BlockDrive::kPoses).translation - first[BlockDrive::kPoses].translation).norm(), 1.0);
+}
+
 // A false loop closure: back at the start, the front-end matches the far
 // corner of the block (283 m away). The odometry knows the block far better
 // than that: rejected without a solve.

@@ -121,7 +121,10 @@ class IncrementalGnc {
   // once) as soon as the estimate holds every new loop closure's effect on
   // its window, when work that does not change that effect is still to
   // come -- the whole-graph refinement that lets the older poses follow, or
-  // another pass for loop closures the landing made explicable. The caller
+  // another pass for loop closures the landing made explicable -- or, when
+  // landing far loop closures is all an update moves, before their trial
+  // (the estimate that stands if it is refused; a landing frees whole
+  // cycles and is the slowest update there is). The caller
   // may read poses() there and publish them (loop closures are classified
   // only when update() returns). The results are the same with or without it.
   UpdateStats update(const std::function<void()>& first_estimate = {});
@@ -221,6 +224,9 @@ class IncrementalGnc {
   // Calls and clears *first_estimate (update()) once the pass's window
   // result stands, if work is left after it.
   std::vector<int> updatePass(UpdateStats* stats, std::function<void()>* first_estimate);
+  // Whether the far loop closures landing (plan.cycles) are all that moves
+  // the estimate in this pass.
+  bool onlyLandings(const UpdatePlan& plan) const;
   Snapshot snapshot(int first) const;
   // Returns to `before`, rejects the far loop closures the trial landed and
   // returns the other pending ones, to be judged again.
