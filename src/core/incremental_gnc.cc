@@ -348,7 +348,11 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
   // Every pass starts with a small trust region that grows only while the
   // steps agree with the model (see GncOptions::InnerSolver::trust_region_radius).
   solver_.resetTrustRegion();
-  UpdatePlan plan = judgeArrivals();
+  // Anytime: judging far loop closures by the map's prediction factorises
+  // their cycles, and landing them iterates there: on a large map the
+  // slowest work there is. If they are all this pass changes, the estimate
+  // before it (the odometry, the rejections) is reported first.
+  UpdatePlan plan = judgeArrivals([&](const UpdatePlan& p) { reportBeforeFarWork(p, first_estimate); });
   planWindow(&plan);
   stats->first_variable = plan.first;
   std::vector<int> next;
@@ -360,14 +364,7 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
     // where the map bends towards them. The trial stands only if it ends
     // lower on the objective than not landing them at all.
     const bool trial = !plan.cycles.empty() && options_.schedule.kind != ScheduleKind::kNone;
-    // Anytime: a landing frees whole cycles and can take long on a large
-    // map. If the landings are all this update moves, the estimate before
-    // the trial already holds everything else new (the odometry, the
-    // rejections), and it is the estimate should the trial be refused.
-    if (trial && *first_estimate && onlyLandings(plan)) {
-      (*first_estimate)();
-      *first_estimate = nullptr;
-    }
+    if (trial) reportBeforeFarWork(plan, first_estimate);
     // Judged on the window, which holds the whole cycle of what landed,
     // before the whole-graph refinement spreads the result.
     const Snapshot before = trial ? snapshot(plan.first) : Snapshot();
@@ -409,6 +406,12 @@ bool IncrementalGnc::onlyLandings(const UpdatePlan& plan) const {
   for (int index : plan.to_graduate)
     if (std::find(plan.cycles.begin(), plan.cycles.end(), index) == plan.cycles.end()) return false;
   return true;
+}
+
+void IncrementalGnc::reportBeforeFarWork(const UpdatePlan& plan, std::function<void()>* first_estimate) const {
+  if (!*first_estimate || !onlyLandings(plan)) return;
+  (*first_estimate)();
+  *first_estimate = nullptr;
 }
 
 IncrementalGnc::Snapshot IncrementalGnc::snapshot(int first) const {
@@ -549,7 +552,7 @@ std::vector<int> IncrementalGnc::explainedAfterLanding(const std::vector<int>& l
   return out;
 }
 
-IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals() {
+IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals(const PlanHook& before_prediction) {
   UpdatePlan plan;
   std::vector<int> far;
   for (int index : pending_) {
@@ -572,11 +575,11 @@ IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals() {
       plan.to_graduate.push_back(index);
     }
   }
-  if (!far.empty()) judgeFar(far, &plan);
+  if (!far.empty()) judgeFar(far, &plan, before_prediction);
   return plan;
 }
 
-void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
+void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan, const PlanHook& before_prediction) {
   // A confident outlier by its own covariance. After a long drift a true
   // loop closure is one too, so this alone cannot tell them apart. Two
   // things can: a neighbour that agrees with it (a place seen again yields a
@@ -617,7 +620,7 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   }
   // A later one may have landed an earlier one as its partner.
   alone.erase(std::remove_if(alone.begin(), alone.end(), landed), alone.end());
-  const std::vector<bool> explained = explainedByTheMap(alone);
+  const std::vector<bool> explained = explainedByTheMap(alone, [&] { before_prediction(*plan); });
   for (size_t i = 0; i < alone.size(); ++i) {
     LoopClosure& loop = loops_[alone[i]];
     if (explained[i]) {
@@ -635,7 +638,8 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan) {
   }
 }
 
-std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loops) {
+std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loops,
+                                                    const std::function<void()>& before_prediction) {
   std::vector<bool> explained(loops.size(), false);
   if (loops.empty()) return explained;
   int first = numPoses();
@@ -681,6 +685,7 @@ std::vector<bool> IncrementalGnc::explainedByTheMap(const std::vector<int>& loop
     undecided_factors.push_back(factors[i]);
   }
   if (undecided.empty()) return explained;
+  if (before_prediction) before_prediction();
   // The whole cycle each closes is free; the prediction of the map holds
   // the older poses fixed, which is what landing it would do.
   const std::vector<SparsePoseGraphSolver::Prediction> predictions =

@@ -742,6 +742,26 @@ TEST(IncrementalGncEndToEnd, ALandingReportsTheEstimateBeforeItsTrialFirst) {
   EXPECT_GT((reported.engine.pose(BlockDrive::kPoses).translation - first[BlockDrive::kPoses].translation).norm(), 1.0);
 }
 
+// The map's prediction factorises the whole block, the slow part of judging
+// a far loop closure: it comes after the first estimate, which here is also
+// the last (the map cannot tell, so the loop closure waits, and nothing
+// moves). No path rules it out, so the report can only have come from the
+// hook before the prediction.
+TEST(IncrementalGncEndToEnd, AFarJudgementReportsTheEstimateBeforeThePrediction) {
+  BlockDrive drive(200.0);
+  const Poses before = drive.engine.poses();
+  Edge closing = edge(BlockDrive::kPoses, 0, drive.truth[BlockDrive::kPoses].inverse() * drive.truth[0]);
+  closing.information = drive.information;
+  closing.kind = EdgeKind::kLoopClosure;
+  drive.engine.addLoopClosure(closing);
+  int calls = 0;
+  drive.engine.update([&] { ++calls; });
+  EXPECT_EQ(calls, 1);
+  EXPECT_FALSE(drive.engine.loopClosures()[0].inlier);
+  EXPECT_EQ(drive.engine.loopClosures()[0].map_judgements, 1);
+  for (size_t i = 0; i < before.size(); ++i) EXPECT_EQ(drive.engine.pose(i).translation, before[i].translation);
+}
+
 // A false loop closure: back at the start, the front-end matches the far
 // corner of the block (283 m away). The odometry knows the block far better
 // than that: rejected without a solve.

@@ -227,6 +227,10 @@ class IncrementalGnc {
   // Whether the far loop closures landing (plan.cycles) are all that moves
   // the estimate in this pass.
   bool onlyLandings(const UpdatePlan& plan) const;
+  // Calls and clears *first_estimate if only far loop closures are left to
+  // judge or land (onlyLandings): the estimate that stands if they are
+  // refused.
+  void reportBeforeFarWork(const UpdatePlan& plan, std::function<void()>* first_estimate) const;
   Snapshot snapshot(int first) const;
   // Returns to `before`, rejects the far loop closures the trial landed and
   // returns the other pending ones, to be judged again.
@@ -262,9 +266,12 @@ class IncrementalGnc {
   Eigen::MatrixXd widenedInformation(const Eigen::MatrixXd& information) const;
   Eigen::MatrixXd widenedCovariance(const Eigen::MatrixXd& covariance) const;
 
-  // The steps of a pass, in order.
-  UpdatePlan judgeArrivals();
-  void judgeFar(const std::vector<int>& far, UpdatePlan* plan);
+  // The steps of a pass, in order. `before_prediction` is called with the
+  // plan so far just before the map's prediction factorises the cycles of
+  // far loop closures (the slow part of judging them).
+  using PlanHook = std::function<void(const UpdatePlan&)>;
+  UpdatePlan judgeArrivals(const PlanHook& before_prediction);
+  void judgeFar(const std::vector<int>& far, UpdatePlan* plan, const PlanHook& before_prediction);
   void land(int index, UpdatePlan* plan);
   // variance_factor() is the a-posteriori variance of unit weight the
   // pairwise test scales the stated covariances by.
@@ -276,7 +283,8 @@ class IncrementalGnc {
                                  const std::function<double()>& variance_factor) const;
   // For each far loop closure, whether the map's uncertainty between its
   // endpoints explains it better than chance (loop_prediction.h).
-  std::vector<bool> explainedByTheMap(const std::vector<int>& loops);
+  std::vector<bool> explainedByTheMap(const std::vector<int>& loops,
+                                      const std::function<void()>& before_prediction = {});
   // Whether the path that last ruled the loop closure out (paths_ruled_out_)
   // still does at the current estimate: usable (none of its factors judged
   // with it, dormant or of no weight) and its bound on the map's odds <= 0.
