@@ -71,7 +71,7 @@ def main():
         ("failed updates", s.failed_updates),
         ("latency p50/p95/max", "%.1f / %.1f / %.1f ms (LoopClosure receive -> estimate publish)" %
          (s.latency_ms_p50, s.latency_ms_p95, s.latency_ms_max)),
-        ("first estimate p50/p95/max", "%.1f / %.1f / %.1f ms (anytime: before the whole graph follows; %d updates)" %
+        ("first estimate p50/p95/max", "%.1f / %.1f / %.1f ms (anytime: before the whole graph follows or far loop closures are judged; %d updates)" %
          (s.first_estimate_latency_ms_p50, s.first_estimate_latency_ms_p95, s.first_estimate_latency_ms_max,
           s.first_estimates)),
         ("idle refinements", "%d%s (whole graph converged while nothing was queued)" %
