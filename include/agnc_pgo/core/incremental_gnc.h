@@ -122,9 +122,10 @@ class IncrementalGnc {
   // its window, when work that does not change that effect is still to
   // come -- the whole-graph refinement that lets the older poses follow, or
   // another pass for loop closures the landing made explicable -- or, when
-  // landing far loop closures is all an update moves, before their trial
-  // (the estimate that stands if it is refused; a landing frees whole
-  // cycles and is the slowest update there is). The caller
+  // far loop closures are all a pass has left, before the map's prediction
+  // that judges them and before the trial that lands them (the estimate
+  // that stands if they are refused; both work on whole cycles and are the
+  // slowest updates there are). The caller
   // may read poses() there and publish them (loop closures are classified
   // only when update() returns). The results are the same with or without it.
   UpdateStats update(const std::function<void()>& first_estimate = {});
@@ -222,7 +223,8 @@ class IncrementalGnc {
   // as unexplained that a far one the map explained makes worth judging
   // again, or after a failed trial the other new ones.
   // Calls and clears *first_estimate (update()) once the pass's window
-  // result stands, if work is left after it.
+  // result stands, if work is left after it, or before far work
+  // (reportBeforeFarWork).
   std::vector<int> updatePass(UpdateStats* stats, std::function<void()>* first_estimate);
   // Whether the far loop closures landing (plan.cycles) are all that moves
   // the estimate in this pass.
