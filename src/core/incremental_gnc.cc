@@ -350,9 +350,10 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
   solver_.resetTrustRegion();
   // Anytime: judging far loop closures by the map's prediction factorises
   // their cycles, and landing them iterates there: on a large map the
-  // slowest work there is. If they are all this pass changes, the estimate
-  // before it (the odometry, the rejections) is reported first.
-  UpdatePlan plan = judgeArrivals([&](const UpdatePlan& p) { reportBeforeFarWork(p, first_estimate); });
+  // slowest work there is. The estimate before it is reported first: the
+  // one that stands if they are refused, and within their own noise of
+  // what the near loop closures arriving with them would make it.
+  UpdatePlan plan = judgeArrivals([&] { reportBeforeFarWork(first_estimate); });
   planWindow(&plan);
   stats->first_variable = plan.first;
   std::vector<int> next;
@@ -364,7 +365,7 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
     // where the map bends towards them. The trial stands only if it ends
     // lower on the objective than not landing them at all.
     const bool trial = !plan.cycles.empty() && options_.schedule.kind != ScheduleKind::kNone;
-    if (trial) reportBeforeFarWork(plan, first_estimate);
+    if (trial) reportBeforeFarWork(first_estimate);
     // Judged on the window, which holds the whole cycle of what landed,
     // before the whole-graph refinement spreads the result.
     const Snapshot before = trial ? snapshot(plan.first) : Snapshot();
@@ -401,15 +402,8 @@ std::vector<int> IncrementalGnc::updatePass(UpdateStats* stats, std::function<vo
   return next;
 }
 
-bool IncrementalGnc::onlyLandings(const UpdatePlan& plan) const {
-  if (!plan.accepted.empty() || !needs_restart_.empty()) return false;
-  for (int index : plan.to_graduate)
-    if (std::find(plan.cycles.begin(), plan.cycles.end(), index) == plan.cycles.end()) return false;
-  return true;
-}
-
-void IncrementalGnc::reportBeforeFarWork(const UpdatePlan& plan, std::function<void()>* first_estimate) const {
-  if (!*first_estimate || !onlyLandings(plan)) return;
+void IncrementalGnc::reportBeforeFarWork(std::function<void()>* first_estimate) const {
+  if (!*first_estimate) return;
   (*first_estimate)();
   *first_estimate = nullptr;
 }
@@ -552,7 +546,7 @@ std::vector<int> IncrementalGnc::explainedAfterLanding(const std::vector<int>& l
   return out;
 }
 
-IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals(const PlanHook& before_prediction) {
+IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals(const std::function<void()>& before_prediction) {
   UpdatePlan plan;
   std::vector<int> far;
   for (int index : pending_) {
@@ -579,7 +573,8 @@ IncrementalGnc::UpdatePlan IncrementalGnc::judgeArrivals(const PlanHook& before_
   return plan;
 }
 
-void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan, const PlanHook& before_prediction) {
+void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan,
+                              const std::function<void()>& before_prediction) {
   // A confident outlier by its own covariance. After a long drift a true
   // loop closure is one too, so this alone cannot tell them apart. Two
   // things can: a neighbour that agrees with it (a place seen again yields a
@@ -620,7 +615,7 @@ void IncrementalGnc::judgeFar(const std::vector<int>& far, UpdatePlan* plan, con
   }
   // A later one may have landed an earlier one as its partner.
   alone.erase(std::remove_if(alone.begin(), alone.end(), landed), alone.end());
-  const std::vector<bool> explained = explainedByTheMap(alone, [&] { before_prediction(*plan); });
+  const std::vector<bool> explained = explainedByTheMap(alone, before_prediction);
   for (size_t i = 0; i < alone.size(); ++i) {
     LoopClosure& loop = loops_[alone[i]];
     if (explained[i]) {

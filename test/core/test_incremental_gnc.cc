@@ -742,6 +742,45 @@ TEST(IncrementalGncEndToEnd, ALandingReportsTheEstimateBeforeItsTrialFirst) {
   EXPECT_GT((reported.engine.pose(BlockDrive::kPoses).translation - first[BlockDrive::kPoses].translation).norm(), 1.0);
 }
 
+// Far work in an update that also brings a loop closure near the estimate:
+// the near one agrees with the estimate of the moment within its own noise,
+// so that estimate is still a fair first one, and it comes before the
+// prediction and the landing (the slow part) rather than after them. The
+// update ends as it ends without the report.
+TEST(IncrementalGncEndToEnd, ALandingWithANearLoopClosureReportsTheEstimateBeforeItsWork) {
+  BlockDrive reported(1.0), silent(1.0);
+  const Poses before = reported.engine.poses();
+  const int last = BlockDrive::kPoses;
+  Edge closing = edge(last, 0, reported.truth[last].inverse() * reported.truth[0]);
+  closing.information = reported.information;
+  closing.kind = EdgeKind::kLoopClosure;
+  // Measured where the estimate has it: near by any covariance.
+  Edge near = edge(last, last - 3, before[last].inverse() * before[last - 3]);
+  near.information = reported.information;
+  near.kind = EdgeKind::kLoopClosure;
+  int calls = 0;
+  Poses first;
+  for (const Edge& e : {near, closing}) {
+    reported.engine.addLoopClosure(e);
+    silent.engine.addLoopClosure(e);
+  }
+  const UpdateStats stats = reported.engine.update([&] {
+    ++calls;
+    first = reported.engine.poses();
+  });
+  silent.engine.update();
+  EXPECT_EQ(calls, 1);
+  EXPECT_EQ(stats.first_variable, 0);  // the whole cycle was free
+  ASSERT_EQ(first.size(), before.size());
+  for (size_t i = 0; i < before.size(); ++i) {
+    EXPECT_EQ(first[i].translation, before[i].translation) << "pose " << i;
+    EXPECT_EQ(reported.engine.pose(i).translation, silent.engine.pose(i).translation) << "pose " << i;
+  }
+  EXPECT_TRUE(reported.engine.loopClosures()[0].inlier);
+  EXPECT_TRUE(reported.engine.loopClosures()[1].inlier);
+  EXPECT_GT((reported.engine.pose(last).translation - first[last].translation).norm(), 1.0);
+}
+
 // The map's prediction factorises the whole block, the slow part of judging
 // a far loop closure: it comes after the first estimate, which here is also
 // the last (the map cannot tell, so the loop closure waits, and nothing

@@ -122,9 +122,10 @@ class IncrementalGnc {
   // its window, when work that does not change that effect is still to
   // come -- the whole-graph refinement that lets the older poses follow, or
   // another pass for loop closures the landing made explicable -- or, when
-  // far loop closures are all a pass has left, before the map's prediction
-  // that judges them and before the trial that lands them (the estimate
-  // that stands if they are refused; both work on whole cycles and are the
+  // far loop closures arrive, before the map's prediction that judges them
+  // and before the trial that lands them (the estimate that stands if they
+  // are refused, and within their own noise of what any near loop closures
+  // arriving with them would make it; both work on whole cycles and are the
   // slowest updates there are). The caller
   // may read poses() there and publish them (loop closures are classified
   // only when update() returns). The results are the same with or without it.
@@ -226,13 +227,11 @@ class IncrementalGnc {
   // result stands, if work is left after it, or before far work
   // (reportBeforeFarWork).
   std::vector<int> updatePass(UpdateStats* stats, std::function<void()>* first_estimate);
-  // Whether the far loop closures landing (plan.cycles) are all that moves
-  // the estimate in this pass.
-  bool onlyLandings(const UpdatePlan& plan) const;
-  // Calls and clears *first_estimate if only far loop closures are left to
-  // judge or land (onlyLandings): the estimate that stands if they are
-  // refused.
-  void reportBeforeFarWork(const UpdatePlan& plan, std::function<void()>* first_estimate) const;
+  // Calls and clears *first_estimate before far work (the map's prediction,
+  // a landing's trial): the estimate of the moment is the one that stands
+  // if the far loop closures are refused, and every near one arriving with
+  // them already agrees with it within its own noise (m < q(0.9)).
+  void reportBeforeFarWork(std::function<void()>* first_estimate) const;
   Snapshot snapshot(int first) const;
   // Returns to `before`, rejects the far loop closures the trial landed and
   // returns the other pending ones, to be judged again.
@@ -268,12 +267,11 @@ class IncrementalGnc {
   Eigen::MatrixXd widenedInformation(const Eigen::MatrixXd& information) const;
   Eigen::MatrixXd widenedCovariance(const Eigen::MatrixXd& covariance) const;
 
-  // The steps of a pass, in order. `before_prediction` is called with the
-  // plan so far just before the map's prediction factorises the cycles of
-  // far loop closures (the slow part of judging them).
-  using PlanHook = std::function<void(const UpdatePlan&)>;
-  UpdatePlan judgeArrivals(const PlanHook& before_prediction);
-  void judgeFar(const std::vector<int>& far, UpdatePlan* plan, const PlanHook& before_prediction);
+  // The steps of a pass, in order. `before_prediction` is called just
+  // before the map's prediction factorises the cycles of far loop closures
+  // (the slow part of judging them).
+  UpdatePlan judgeArrivals(const std::function<void()>& before_prediction);
+  void judgeFar(const std::vector<int>& far, UpdatePlan* plan, const std::function<void()>& before_prediction);
   void land(int index, UpdatePlan* plan);
   // variance_factor() is the a-posteriori variance of unit weight the
   // pairwise test scales the stated covariances by.
