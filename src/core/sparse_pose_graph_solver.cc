@@ -14,6 +14,7 @@
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
+#include "block_simplicial_llt.h"
 #include "cholmod_threads.h"
 
 namespace agnc_pgo {
@@ -82,7 +83,7 @@ struct SparsePoseGraphSolver::VarianceTerms {
 };
 
 struct SparsePoseGraphSolver::Decompositions {
-  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> simplicial;
+  internal::BlockSimplicialLLT simplicial;
   Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> supernodal;
 };
 
@@ -283,8 +284,8 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   const int nv = numPoses() - first;
   collectSlots(first);
   orderVariables(nv);
-  const std::vector<std::vector<int>> rows = upperBlockRows(nv);
-  allocateHessian(rows);
+  const internal::BlockPattern pattern = upperBlockPattern(nv);
+  allocateHessian(pattern);
   gradient_.resize(static_cast<long>(nv) * tangent_);
   factor_valid_ = false;
   model_known_ = false;
@@ -292,7 +293,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
     keepCholmodSerial();
     decompositions_->supernodal.analyzePattern(hessian_);
   } else {
-    decompositions_->simplicial.analyzePattern(hessian_);
+    decompositions_->simplicial.analyzeBlocks(pattern, tangent_);
   }
   structure_first_ = first;
   structure_poses_ = numPoses();
@@ -324,6 +325,43 @@ void SparsePoseGraphSolver::collectSlots(int first) {
   }
 }
 
+namespace {
+
+// The pattern of a symmetric block matrix from its coupled pairs (a, b),
+// per column the sorted rows, the diagonal included: both triangles when
+// `full`, else the upper one (rows <= column).
+internal::BlockPattern blockPattern(int nv, const std::vector<std::pair<int, int>>& pairs, bool full) {
+  internal::BlockPattern p;
+  p.start.assign(nv + 1, 0);
+  for (int j = 0; j < nv; ++j) ++p.start[j + 1];  // the diagonal
+  for (const auto& [a, b] : pairs) {
+    ++p.start[std::max(a, b) + 1];
+    if (full) ++p.start[std::min(a, b) + 1];
+  }
+  for (int j = 0; j < nv; ++j) p.start[j + 1] += p.start[j];
+  p.rows.resize(p.start[nv]);
+  std::vector<int> next(p.start.begin(), p.start.end() - 1);
+  for (int j = 0; j < nv; ++j) p.rows[next[j]++] = j;
+  for (const auto& [a, b] : pairs) {
+    p.rows[next[std::max(a, b)]++] = std::min(a, b);
+    if (full) p.rows[next[std::min(a, b)]++] = std::max(a, b);
+  }
+  // Sorted and without the duplicates of parallel factors, compacted.
+  int out = 0;
+  for (int j = 0; j < nv; ++j) {
+    const auto begin = p.rows.begin() + p.start[j], end = p.rows.begin() + p.start[j + 1];
+    std::sort(begin, end);
+    const auto last = std::unique(begin, end);
+    p.start[j] = out;
+    out = static_cast<int>(std::copy(begin, last, p.rows.begin() + out) - p.rows.begin());
+  }
+  p.start[nv] = out;
+  p.rows.resize(out);
+  return p;
+}
+
+}  // namespace
+
 void SparsePoseGraphSolver::orderVariables(int nv) {
   // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
   // block row of variable v in the permuted Hessian. CHOLMOD (SE(3)) orders
@@ -333,17 +371,21 @@ void SparsePoseGraphSolver::orderVariables(int nv) {
   if (supernodal_) {
     for (int v = 0; v < nv; ++v) position_[v] = v;
   } else {
-    std::vector<Eigen::Triplet<double>> pattern;
-    pattern.reserve(nv + slots_.size());
-    for (int v = 0; v < nv; ++v) pattern.emplace_back(v, v, 1.0);
+    // AMD wants both triangles and the diagonal, sorted: built as such
+    // rather than symmetrised from triplets (Eigen's AMDOrdering would do
+    // that twice).
+    std::vector<std::pair<int, int>> pairs;
+    pairs.reserve(slots_.size());
     for (const FactorSlot& s : slots_)
-      if (s.coupled) pattern.emplace_back(std::max(s.ia, s.ib), std::min(s.ia, s.ib), 1.0);
-    Eigen::SparseMatrix<double> lower(nv, nv);
-    lower.setFromTriplets(pattern.begin(), pattern.end());
-    Eigen::SparseMatrix<double> blocks;
-    blocks = lower.selfadjointView<Eigen::Lower>();
+      if (s.coupled) pairs.emplace_back(s.ia, s.ib);
+    const internal::BlockPattern symmetric = blockPattern(nv, pairs, true);
+    Eigen::SparseMatrix<double> c(nv, nv);
+    c.resizeNonZeros(static_cast<long>(symmetric.rows.size()));
+    std::copy(symmetric.start.begin(), symmetric.start.end(), c.outerIndexPtr());
+    std::copy(symmetric.rows.begin(), symmetric.rows.end(), c.innerIndexPtr());
+    std::fill(c.valuePtr(), c.valuePtr() + c.nonZeros(), 1.0);
     Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
-    Eigen::AMDOrdering<int>()(blocks, order);
+    Eigen::internal::minimum_degree_ordering(c, order);
     for (int k = 0; k < nv; ++k) position_[order.indices()[k]] = k;
   }
   for (FactorSlot& s : slots_) {
@@ -352,28 +394,24 @@ void SparsePoseGraphSolver::orderVariables(int nv) {
   }
 }
 
-std::vector<std::vector<int>> SparsePoseGraphSolver::upperBlockRows(int nv) const {
+internal::BlockPattern SparsePoseGraphSolver::upperBlockPattern(int nv) const {
   // Block rows I <= J present in each block column J (the upper triangle,
   // which the simplicial Cholesky factorises in place, without a copy).
-  std::vector<std::vector<int>> rows(nv);
-  for (int j = 0; j < nv; ++j) rows[j].push_back(j);
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(slots_.size());
   for (const FactorSlot& s : slots_)
-    if (s.coupled) rows[std::max(s.ia, s.ib)].push_back(std::min(s.ia, s.ib));
-  for (std::vector<int>& column : rows) {
-    std::sort(column.begin(), column.end());
-    column.erase(std::unique(column.begin(), column.end()), column.end());
-  }
-  return rows;
+    if (s.coupled) pairs.emplace_back(s.ia, s.ib);
+  return blockPattern(nv, pairs, false);
 }
 
-void SparsePoseGraphSolver::allocateHessian(const std::vector<std::vector<int>>& rows) {
+void SparsePoseGraphSolver::allocateHessian(const internal::BlockPattern& pattern) {
   // Dense d x d blocks, column-major within each block column, and where
   // each slot's blocks live in it.
   const int d = tangent_;
-  const int nv = static_cast<int>(rows.size());
+  const int nv = pattern.columns();
+  const auto height = [&](int j) { return static_cast<long>(pattern.start[j + 1] - pattern.start[j]) * d; };
   std::vector<long> column_start(nv + 1, 0);
-  for (int j = 0; j < nv; ++j)
-    column_start[j + 1] = column_start[j] + static_cast<long>(rows[j].size()) * d * d;
+  for (int j = 0; j < nv; ++j) column_start[j + 1] = column_start[j] + height(j) * d;
 
   const long n = static_cast<long>(nv) * d;
   hessian_ = Eigen::SparseMatrix<double>(n, n);
@@ -381,22 +419,21 @@ void SparsePoseGraphSolver::allocateHessian(const std::vector<std::vector<int>>&
   int* outer = hessian_.outerIndexPtr();
   int* inner = hessian_.innerIndexPtr();
   for (int j = 0; j < nv; ++j) {
-    const long height = static_cast<long>(rows[j].size()) * d;
     for (int c = 0; c < d; ++c) {
-      const long start = column_start[j] + c * height;
+      const long start = column_start[j] + c * height(j);
       outer[j * d + c] = static_cast<int>(start);
       long k = start;
-      for (int i : rows[j])
-        for (int r = 0; r < d; ++r) inner[k++] = i * d + r;
+      for (int p = pattern.start[j]; p < pattern.start[j + 1]; ++p)
+        for (int r = 0; r < d; ++r) inner[k++] = pattern.rows[p] * d + r;
     }
   }
   outer[n] = static_cast<int>(column_start[nv]);
 
   // Offset of block (i, j), i <= j: base + c * stride + r for entry (r, c).
   auto locate = [&](int i, int j, long* base, long* stride) {
-    const auto it = std::lower_bound(rows[j].begin(), rows[j].end(), i);
-    *stride = static_cast<long>(rows[j].size()) * d;
-    *base = column_start[j] + static_cast<long>(it - rows[j].begin()) * d;
+    const auto first = pattern.rows.begin() + pattern.start[j], last = pattern.rows.begin() + pattern.start[j + 1];
+    *stride = height(j);
+    *base = column_start[j] + static_cast<long>(std::lower_bound(first, last, i) - first) * d;
   };
   for (FactorSlot& s : slots_) {
     if (s.ia >= 0) locate(s.ia, s.ia, &s.base_aa, &s.stride_aa);

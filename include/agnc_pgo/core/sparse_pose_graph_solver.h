@@ -37,6 +37,9 @@
 
 namespace agnc_pgo {
 namespace core {
+namespace internal {
+struct BlockPattern;  // src/core/block_simplicial_llt.h
+}  // namespace internal
 
 enum class FactorMode { kRobust, kPlain, kDisabled };
 
@@ -298,8 +301,8 @@ class SparsePoseGraphSolver {
   // Hessian's storage with each slot's offsets in it.
   void collectSlots(int first_variable);
   void orderVariables(int variables);
-  std::vector<std::vector<int>> upperBlockRows(int variables) const;
-  void allocateHessian(const std::vector<std::vector<int>>& rows);
+  internal::BlockPattern upperBlockPattern(int variables) const;
+  void allocateHessian(const internal::BlockPattern& pattern);
   // Assembles the normal equations at the current estimate (tangent size D)
   // and returns the robust cost of the window.
   template <int D>
@@ -402,7 +405,8 @@ class SparsePoseGraphSolver {
   Eigen::SparseMatrix<double> hessian_;
   Eigen::VectorXd gradient_;
   // SE(2): Eigen's simplicial LLT on the block-AMD order (no per-call
-  // overhead; on M3500 it beat CHOLMOD's supernodal LLT up to the full graph).
+  // overhead; on M3500 it beat CHOLMOD's supernodal LLT up to the full graph),
+  // its symbolic analysis done on the blocks (src/core/block_simplicial_llt.h).
   // SE(3): CHOLMOD's supernodal LLT, whose dense kernels win on 6x6 blocks.
   // Both live in the .cc file, so that CHOLMOD's headers stay out of the
   // installed ones.

@@ -1,0 +1,124 @@
+// The block symbolic analysis (src/core/block_simplicial_llt.h) against
+// Eigen's own analyzePattern(): the same factor, to the bit, on random
+// block patterns stored as the solver stores its Hessian (dense d x d
+// blocks, upper block triangle, diagonal blocks whole).
+#include <algorithm>
+#include <random>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "core/block_simplicial_llt.h"
+
+namespace agnc_pgo {
+namespace core {
+namespace {
+
+using internal::BlockPattern;
+using internal::BlockSimplicialLLT;
+
+struct BlockMatrix {
+  BlockPattern pattern;
+  Eigen::SparseMatrix<double> upper;
+};
+
+// A random graph over `blocks` nodes (a chain and `extra` random pairs), its
+// pattern and an SPD matrix of d x d blocks on it: sum of J^T J per pair
+// plus a diagonal that keeps it positive definite.
+BlockMatrix randomBlockMatrix(int blocks, int extra, int d, unsigned seed) {
+  std::mt19937 random(seed);
+  std::uniform_int_distribution<int> node(0, blocks - 1);
+  std::normal_distribution<double> value;
+  std::vector<std::pair<int, int>> pairs;
+  for (int i = 0; i + 1 < blocks; ++i) pairs.emplace_back(i, i + 1);
+  for (int k = 0; k < extra; ++k) {
+    const int a = node(random), b = node(random);
+    if (a != b) pairs.emplace_back(a, b);
+  }
+  Eigen::MatrixXd dense = Eigen::MatrixXd::Zero(blocks * d, blocks * d);
+  for (const auto& [a, b] : pairs) {
+    Eigen::MatrixXd j(d, 2 * d);
+    for (int r = 0; r < d; ++r)
+      for (int c = 0; c < 2 * d; ++c) j(r, c) = value(random);
+    const Eigen::MatrixXd h = j.transpose() * j;
+    for (int x = 0; x < 2; ++x)
+      for (int y = 0; y < 2; ++y)
+        dense.block((x ? b : a) * d, (y ? b : a) * d, d, d) += h.block(x * d, y * d, d, d);
+  }
+  dense.diagonal().array() += 1.0;
+
+  BlockMatrix m;
+  std::vector<std::vector<int>> rows(blocks);
+  for (int j = 0; j < blocks; ++j) rows[j].push_back(j);
+  for (const auto& [a, b] : pairs) rows[std::max(a, b)].push_back(std::min(a, b));
+  for (int j = 0; j < blocks; ++j) {
+    std::sort(rows[j].begin(), rows[j].end());
+    rows[j].erase(std::unique(rows[j].begin(), rows[j].end()), rows[j].end());
+    m.pattern.rows.insert(m.pattern.rows.end(), rows[j].begin(), rows[j].end());
+    m.pattern.start.push_back(static_cast<int>(m.pattern.rows.size()));
+  }
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int j = 0; j < blocks; ++j)
+    for (int i : rows[j])
+      for (int c = 0; c < d; ++c)
+        for (int r = 0; r < d; ++r) entries.emplace_back(i * d + r, j * d + c, dense(i * d + r, j * d + c));
+  m.upper.resize(blocks * d, blocks * d);
+  m.upper.setFromTriplets(entries.begin(), entries.end());
+  return m;
+}
+
+void expectSameFactor(const BlockMatrix& m, int d) {
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> eigen;
+  eigen.analyzePattern(m.upper);
+  eigen.factorize(m.upper);
+  ASSERT_EQ(eigen.info(), Eigen::Success);
+  BlockSimplicialLLT blocks;
+  blocks.analyzeBlocks(m.pattern, d);
+  blocks.factorize(m.upper);
+  ASSERT_EQ(blocks.info(), Eigen::Success);
+
+  const Eigen::SparseMatrix<double>& expected = eigen.matrixL().nestedExpression();
+  const Eigen::SparseMatrix<double>& actual = blocks.matrixL().nestedExpression();
+  ASSERT_EQ(actual.rows(), expected.rows());
+  ASSERT_EQ(actual.nonZeros(), expected.nonZeros());
+  for (int k = 0; k <= expected.cols(); ++k) ASSERT_EQ(actual.outerIndexPtr()[k], expected.outerIndexPtr()[k]);
+  for (long k = 0; k < expected.nonZeros(); ++k) {
+    ASSERT_EQ(actual.innerIndexPtr()[k], expected.innerIndexPtr()[k]) << "entry " << k;
+    ASSERT_EQ(actual.valuePtr()[k], expected.valuePtr()[k]) << "entry " << k;  // bitwise: same operations
+  }
+  const Eigen::VectorXd rhs = Eigen::VectorXd::LinSpaced(m.upper.rows(), -1.0, 1.0);
+  const Eigen::VectorXd x = blocks.solve(rhs);
+  const Eigen::SparseMatrix<double> symmetric = m.upper.selfadjointView<Eigen::Upper>();
+  const Eigen::MatrixXd full(symmetric);
+  EXPECT_LT((full * x - rhs).norm(), 1e-9 * rhs.norm());
+}
+
+TEST(BlockSimplicialLLT, FactorsAsEigensScalarAnalysisDoes2D) {
+  for (unsigned seed = 1; seed <= 20; ++seed) expectSameFactor(randomBlockMatrix(40, 15, 3, seed), 3);
+}
+
+TEST(BlockSimplicialLLT, FactorsAsEigensScalarAnalysisDoes3D) {
+  for (unsigned seed = 1; seed <= 10; ++seed) expectSameFactor(randomBlockMatrix(25, 10, 6, seed), 6);
+}
+
+// A forest: pairs only within two halves, so the block tree has two roots.
+TEST(BlockSimplicialLLT, FactorsADisconnectedPattern) {
+  BlockMatrix m = randomBlockMatrix(10, 0, 3, 3);
+  // Cut the chain between blocks 4 and 5: drop block row 4 from column 5.
+  std::vector<Eigen::Triplet<double>> entries;
+  for (int k = 0; k < m.upper.outerSize(); ++k)
+    for (Eigen::SparseMatrix<double>::InnerIterator it(m.upper, k); it; ++it)
+      if (!(it.row() / 3 == 4 && it.col() / 3 == 5)) entries.emplace_back(it.row(), it.col(), it.value());
+  m.upper.setFromTriplets(entries.begin(), entries.end());
+  std::vector<int>& rows = m.pattern.rows;
+  const int first = m.pattern.start[5];
+  ASSERT_EQ(rows[first], 4);
+  rows.erase(rows.begin() + first);
+  for (size_t j = 6; j < m.pattern.start.size(); ++j) --m.pattern.start[j];
+  expectSameFactor(m, 3);
+}
+
+}  // namespace
+}  // namespace core
+}  // namespace agnc_pgo
