@@ -80,6 +80,11 @@ Pose Pose::operator*(const Pose& other) const {
 }
 
 double wrapAngle(double angle) {
+  // Most angles are wrapped already, and there std::remainder returns them
+  // unchanged (|angle / 2pi| <= 1/2 rounds to 0, ties to even); glibc's
+  // remainder saves and restores the rounding mode, which made it a
+  // twentieth of an update's time.
+  if (angle > -M_PI && angle <= M_PI) return angle;
   // std::remainder maps to [-pi, pi]; move the closed lower end to +pi.
   double wrapped = std::remainder(angle, 2.0 * M_PI);
   if (wrapped <= -M_PI) wrapped += 2.0 * M_PI;

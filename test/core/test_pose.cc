@@ -1,6 +1,8 @@
 #include "agnc_pgo/core/pose.h"
 
 #include <cmath>
+#include <random>
+#include <vector>
 
 #include <gtest/gtest.h>
 
@@ -89,6 +91,21 @@ TEST(Pose, WrapAngleRange) {
   EXPECT_NEAR(wrapAngle(-7.0), -7.0 + 2 * M_PI, kTol);
   EXPECT_NEAR(wrapAngle(7.0), 7.0 - 2 * M_PI, kTol);
   EXPECT_NEAR(wrapAngle(100.0), 100.0 - 32 * M_PI, 1e-12);
+}
+
+// The shortcut for angles already in (-pi, pi] returns what std::remainder
+// does there, to the bit (the engine's results must not move with it).
+TEST(Pose, WrapAngleAgreesWithRemainderToTheBit) {
+  std::mt19937 random(5);
+  std::uniform_real_distribution<double> angle(-4.0, 4.0);
+  std::vector<double> angles{std::nextafter(-M_PI, 0.0), std::nextafter(M_PI, 0.0), -0.0, 0.0, 1e-300, M_PI};
+  for (int k = 0; k < 100000; ++k) angles.push_back(angle(random));
+  for (double a : angles) {
+    double expected = std::remainder(a, 2.0 * M_PI);
+    if (expected <= -M_PI) expected += 2.0 * M_PI;
+    EXPECT_EQ(std::signbit(wrapAngle(a)), std::signbit(expected)) << a;
+    EXPECT_EQ(wrapAngle(a), expected) << a;
+  }
 }
 
 TEST(Pose, RelativePoseErrorZeroForConsistentPoses) {
