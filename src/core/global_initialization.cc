@@ -52,7 +52,7 @@ Problem makeProblem(const PoseGraph& graph, const GlobalInitializationOptions& o
 
 // ---------------------------------------------------------------- spanning trees
 
-using Adjacency = std::vector<std::vector<const Edge*>>;  // per pose, the edges it may be reached by
+using Adjacency = std::vector<std::vector<int>>;  // per pose, the edges (indices into p.edges) it may be reached by
 
 int findRoot(std::vector<int>* parent, int i) {
   while ((*parent)[i] != i) i = (*parent)[i] = (*parent)[(*parent)[i]];
@@ -64,17 +64,19 @@ bool isOdometry(const Edge& e) { return e.kind == EdgeKind::kOdometry && std::ab
 // Kruskal without weights: odometry edges first, so the tree is the odometry
 // chain wherever it exists and loop closures only bridge its gaps.
 Adjacency odometryTree(const Problem& p) {
-  std::vector<const Edge*> ordered(p.edges);
-  std::stable_partition(ordered.begin(), ordered.end(), [](const Edge* e) { return isOdometry(*e); });
+  std::vector<int> ordered(p.edges.size());
+  std::iota(ordered.begin(), ordered.end(), 0);
+  std::stable_partition(ordered.begin(), ordered.end(), [&p](int k) { return isOdometry(*p.edges[k]); });
   std::vector<int> parent(p.num_poses);
   std::iota(parent.begin(), parent.end(), 0);
   Adjacency adjacent(p.num_poses);
-  for (const Edge* e : ordered) {
+  for (int k : ordered) {
+    const Edge* e = p.edges[k];
     const int a = findRoot(&parent, e->from), b = findRoot(&parent, e->to);
     if (a == b) continue;
     parent[a] = b;
-    adjacent[e->from].push_back(e);
-    adjacent[e->to].push_back(e);
+    adjacent[e->from].push_back(k);
+    adjacent[e->to].push_back(k);
   }
   return adjacent;
 }
@@ -83,19 +85,21 @@ Adjacency odometryTree(const Problem& p) {
 // shortest-path tree, whose cycles through a loop closure are short.
 Adjacency allEdges(const Problem& p) {
   Adjacency adjacent(p.num_poses);
-  for (const Edge* e : p.edges) {
-    adjacent[e->from].push_back(e);
-    adjacent[e->to].push_back(e);
+  for (int k = 0; k < static_cast<int>(p.edges.size()); ++k) {
+    adjacent[p.edges[k]->from].push_back(k);
+    adjacent[p.edges[k]->to].push_back(k);
   }
-  for (std::vector<const Edge*>& edges : adjacent)
-    std::stable_partition(edges.begin(), edges.end(), [](const Edge* e) { return isOdometry(*e); });
+  for (std::vector<int>& edges : adjacent)
+    std::stable_partition(edges.begin(), edges.end(), [&p](int k) { return isOdometry(*p.edges[k]); });
   return adjacent;
 }
 
 // Heading of every pose composed breadth-first through `adjacent` from
-// `root` (then from the gauge poses, for components without the root).
+// `root` (then from the gauge poses, for components without the root), by
+// the edges' measured headings `yaw` (per edge; empty: connectivity only).
 // Throws if a pose is not reached.
-std::vector<double> treeHeadings(const Problem& p, const Adjacency& adjacent, int root) {
+std::vector<double> treeHeadings(const Problem& p, const Adjacency& adjacent, int root,
+                                 const std::vector<double>& yaw) {
   std::vector<double> heading(p.num_poses, 0.0);
   std::vector<bool> reached(p.num_poses, false);
   std::vector<int> sources{root};
@@ -103,15 +107,16 @@ std::vector<double> treeHeadings(const Problem& p, const Adjacency& adjacent, in
   for (int source : sources) {
     if (reached[source]) continue;
     reached[source] = true;
-    heading[source] = p.values[source].yaw();
+    heading[source] = yaw.empty() ? 0.0 : p.values[source].yaw();
     std::deque<int> queue{source};
     while (!queue.empty()) {
       const int a = queue.front();
       queue.pop_front();
-      for (const Edge* e : adjacent[a]) {
+      for (int k : adjacent[a]) {
+        const Edge* e = p.edges[k];
         const int b = e->from == a ? e->to : e->from;
         if (reached[b]) continue;
-        const double z = e->measurement.yaw();
+        const double z = yaw.empty() ? 0.0 : yaw[k];
         heading[b] = heading[a] + (e->from == a ? z : -z);
         reached[b] = true;
         queue.push_back(b);
@@ -266,15 +271,17 @@ struct Headings {
 // The linear angle problem: one term per edge, weighted by its marginal
 // rotation information; the trees only change its right-hand side.
 struct AngleSystem {
-  explicit AngleSystem(const Problem& p) : system(p, 1), weight(p.edges.size()) {
+  explicit AngleSystem(const Problem& p) : system(p, 1), weight(p.edges.size()), yaw(p.edges.size()) {
     for (size_t k = 0; k < p.edges.size(); ++k) {
       const Edge& e = *p.edges[k];
+      yaw[k] = e.measurement.yaw();
       weight[k] = marginalRotationInformation(e.information, 1)(0, 0);
       system.add(e.from, e.to, Eigen::MatrixXd::Identity(1, 1), Eigen::MatrixXd::Constant(1, 1, weight[k]));
     }
   }
   RelativeLeastSquares system;
   std::vector<double> weight;  // per edge
+  std::vector<double> yaw;     // per edge, its measured heading (computed once for every tree)
 };
 
 // Headings from the linear angle problem, each measured angle taken in the
@@ -289,7 +296,7 @@ Headings solveHeadingsAgainst(const Problem& p, AngleSystem* angles, const std::
   for (size_t k = 0; k < p.edges.size(); ++k) {
     const Edge& e = *p.edges[k];
     const double tree_difference = tree[e.to] - tree[e.from];
-    regularised(k) = tree_difference - wrapAngle(tree_difference - e.measurement.yaw());
+    regularised(k) = tree_difference - wrapAngle(tree_difference - angles->yaw[k]);
   }
   const Eigen::VectorXd x = angles->system.solve(regularised, known, "angle");
   Headings h;
@@ -312,11 +319,11 @@ constexpr int kTreeRoots = 8;
 
 std::vector<double> solveHeadings(const Problem& p) {
   AngleSystem angles(p);
-  Headings best = solveHeadingsAgainst(p, &angles, treeHeadings(p, odometryTree(p), p.roots.front()));
+  Headings best = solveHeadingsAgainst(p, &angles, treeHeadings(p, odometryTree(p), p.roots.front(), angles.yaw));
   const Adjacency adjacent = allEdges(p);
   for (int k = 0; k < kTreeRoots; ++k) {
     const int root = static_cast<int>(static_cast<long>(k) * p.num_poses / kTreeRoots);
-    Headings candidate = solveHeadingsAgainst(p, &angles, treeHeadings(p, adjacent, root));
+    Headings candidate = solveHeadingsAgainst(p, &angles, treeHeadings(p, adjacent, root, angles.yaw));
     if (candidate.cost < best.cost) best = std::move(candidate);
   }
   return best.heading;
@@ -346,7 +353,7 @@ Eigen::Matrix3d projectToRotation(const Eigen::Matrix3d& m) {
 // cost separates by rows: row r of R_j is row r of R_i times R_ij, so the
 // three rows are three solves of one 3-vector system, R_ij^T as its M.
 std::vector<Eigen::Matrix3d> solveRotations(const Problem& p) {
-  treeHeadings(p, odometryTree(p), p.roots.front());  // connectivity check only
+  treeHeadings(p, odometryTree(p), p.roots.front(), {});  // connectivity check only
   std::vector<Eigen::Matrix3d> gauge(p.num_poses);
   for (int i = 0; i < p.num_poses; ++i) gauge[i] = p.values[i].rotation.normalized().toRotationMatrix();
   RelativeLeastSquares system(p, 3);
