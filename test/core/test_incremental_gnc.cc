@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <random>
 #include <string>
@@ -711,74 +712,69 @@ TEST(IncrementalGncEndToEnd, ALoneLoopClosureAfterALongDriftClosesTheMap) {
   EXPECT_LT(absoluteTrajectoryError(drive.engine.poses(), drive.optimum().poses, 2), 0.01 * drift);
 }
 
-// Anytime: landing the loop closure frees the whole block and iterates to
-// convergence, which on a large map takes long. The landing is all the
-// update moves, so the estimate before its trial comes first (the odometry's,
-// as it stays should the trial be refused); the update then ends where it
-// ends without the report.
-TEST(IncrementalGncEndToEnd, ALandingReportsTheEstimateBeforeItsTrialFirst) {
+// A loop closure of the drive (from, to) measured as `z`, with the drive's
+// loop-closure information.
+Edge driveLoop(const BlockDrive& drive, int from, int to, const Pose& z) {
+  Edge e = edge(from, to, z);
+  e.information = drive.information;
+  e.kind = EdgeKind::kLoopClosure;
+  return e;
+}
+
+// The loop closure that closes the block, measured as the truth has it.
+Edge closingLoop(const BlockDrive& drive) {
+  return driveLoop(drive, BlockDrive::kPoses, 0, drive.truth[BlockDrive::kPoses].inverse() * drive.truth[0]);
+}
+
+// Adds `loops(drive)` to two identical drives and updates both, one with the
+// anytime report: the report comes once, with the estimate before the
+// update, and the update ends as it ends without it, every loop closure
+// kept and the block closed (the whole cycle free, the last pose moved).
+void expectTheEstimateBeforeTheLanding(const std::function<std::vector<Edge>(const BlockDrive&)>& loops) {
   BlockDrive reported(1.0), silent(1.0);
   const Poses before = reported.engine.poses();
-  Edge closing = edge(BlockDrive::kPoses, 0, reported.truth[BlockDrive::kPoses].inverse() * reported.truth[0]);
-  closing.information = reported.information;
-  closing.kind = EdgeKind::kLoopClosure;
+  for (const Edge& e : loops(reported)) {
+    reported.engine.addLoopClosure(e);
+    silent.engine.addLoopClosure(e);
+  }
   int calls = 0;
   Poses first;
-  reported.engine.addLoopClosure(closing);
   const UpdateStats stats = reported.engine.update([&] {
     ++calls;
     first = reported.engine.poses();
   });
-  silent.engine.addLoopClosure(closing);
   silent.engine.update();
   EXPECT_EQ(calls, 1);
-  EXPECT_EQ(stats.first_variable, 0);  // the whole cycle was free
+  EXPECT_EQ(stats.first_variable, 0);
   ASSERT_EQ(first.size(), before.size());
   for (size_t i = 0; i < before.size(); ++i) {
     EXPECT_EQ(first[i].translation, before[i].translation) << "pose " << i;
     EXPECT_EQ(reported.engine.pose(i).translation, silent.engine.pose(i).translation) << "pose " << i;
   }
-  EXPECT_TRUE(reported.engine.loopClosures()[0].inlier);
-  EXPECT_GT((reported.engine.pose(BlockDrive::kPoses).translation - first[BlockDrive::kPoses].translation).norm(), 1.0);
+  for (const LoopClosure& loop : reported.engine.loopClosures()) EXPECT_TRUE(loop.inlier);
+  const int last = BlockDrive::kPoses;
+  EXPECT_GT((reported.engine.pose(last).translation - first[last].translation).norm(), 1.0);
+}
+
+// Anytime: landing the loop closure frees the whole block and iterates to
+// convergence, which on a large map takes long. The landing is all the
+// update moves, so the estimate before its trial comes first (the odometry's,
+// as it stays should the trial be refused).
+TEST(IncrementalGncEndToEnd, ALandingReportsTheEstimateBeforeItsTrialFirst) {
+  expectTheEstimateBeforeTheLanding([](const BlockDrive& drive) { return std::vector<Edge>{closingLoop(drive)}; });
 }
 
 // Far work in an update that also brings a loop closure near the estimate:
 // the near one agrees with the estimate of the moment within its own noise,
 // so that estimate is still a fair first one, and it comes before the
-// prediction and the landing (the slow part) rather than after them. The
-// update ends as it ends without the report.
+// prediction and the landing (the slow part) rather than after them.
 TEST(IncrementalGncEndToEnd, ALandingWithANearLoopClosureReportsTheEstimateBeforeItsWork) {
-  BlockDrive reported(1.0), silent(1.0);
-  const Poses before = reported.engine.poses();
-  const int last = BlockDrive::kPoses;
-  Edge closing = edge(last, 0, reported.truth[last].inverse() * reported.truth[0]);
-  closing.information = reported.information;
-  closing.kind = EdgeKind::kLoopClosure;
-  // Measured where the estimate has it: near by any covariance.
-  Edge near = edge(last, last - 3, before[last].inverse() * before[last - 3]);
-  near.information = reported.information;
-  near.kind = EdgeKind::kLoopClosure;
-  int calls = 0;
-  Poses first;
-  for (const Edge& e : {near, closing}) {
-    reported.engine.addLoopClosure(e);
-    silent.engine.addLoopClosure(e);
-  }
-  const UpdateStats stats = reported.engine.update([&] {
-    ++calls;
-    first = reported.engine.poses();
+  expectTheEstimateBeforeTheLanding([](const BlockDrive& drive) {
+    // Measured where the estimate has it: near by any covariance.
+    const int last = BlockDrive::kPoses;
+    const Pose near = drive.engine.pose(last).inverse() * drive.engine.pose(last - 3);
+    return std::vector<Edge>{driveLoop(drive, last, last - 3, near), closingLoop(drive)};
   });
-  silent.engine.update();
-  EXPECT_EQ(calls, 1);
-  EXPECT_EQ(stats.first_variable, 0);  // the whole cycle was free
-  ASSERT_EQ(first.size(), before.size());
-  for (size_t i = 0; i < before.size(); ++i) {
-    EXPECT_EQ(first[i].translation, before[i].translation) << "pose " << i;
-    EXPECT_EQ(reported.engine.pose(i).translation, silent.engine.pose(i).translation) << "pose " << i;
-  }
-  EXPECT_TRUE(reported.engine.loopClosures()[0].inlier);
-  EXPECT_TRUE(reported.engine.loopClosures()[1].inlier);
-  EXPECT_GT((reported.engine.pose(last).translation - first[last].translation).norm(), 1.0);
 }
 
 // The map's prediction factorises the whole block, the slow part of judging
