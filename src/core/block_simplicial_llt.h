@@ -1,6 +1,7 @@
 // Eigen's simplicial LL^T (up-looking, on a matrix already ordered and
 // stored as its upper triangle), with the symbolic analysis done on the
-// block pattern of a pose graph's Hessian instead of on its scalars.
+// block pattern of a pose graph's Hessian instead of on its scalars, and
+// (factorizeBlocks(), below) the numeric factorisation on its blocks.
 //
 // Why. Every structure change (a new window, a pose or loop closure more)
 // analyses the pattern again: on the riSAM logs and M3500 that is as often
@@ -21,8 +22,10 @@
 #ifndef AGNC_PGO_SRC_CORE_BLOCK_SIMPLICIAL_LLT_H
 #define AGNC_PGO_SRC_CORE_BLOCK_SIMPLICIAL_LLT_H
 
+#include <utility>
 #include <vector>
 
+#include <Eigen/Cholesky>
 #include <Eigen/SparseCholesky>
 #include <Eigen/SparseCore>
 
@@ -75,6 +78,8 @@ class BlockSimplicialLLT
       }
     }
     m_matrix.resizeNonZeros(lp[n]);
+    block_ = block;
+    block_parent_ = std::move(parent);
     m_P.resize(0);
     m_Pinv.resize(0);
     this->Eigen::SparseSolverBase<Base>::m_isInitialized = true;
@@ -82,6 +87,113 @@ class BlockSimplicialLLT
     m_analysisIsOk = true;
     m_factorizationIsOk = false;
   }
+
+  // The numeric factorisation after analyzeBlocks(), on d x d blocks: the
+  // up-looking algorithm of Eigen's factorize(), one block row of L at a
+  // time. Block row K solves L(0:K, 0:K) X = A(0:K, K) by forward
+  // substitution over the blocks of its row pattern (the block tree's paths
+  // from A's blocks up to K, in topological order): X_I = L_II^-1 Y_I, then
+  // Y_R -= L_RI X_I for the block rows R stored in column block I, and
+  // L(K, I) = X_I^T; the diagonal block is the dense Cholesky factor of
+  // A_KK - sum X_I^T X_I. Same pattern and storage as factorize() leaves,
+  // so solve() and matrixL() work as after it; the values agree with it
+  // to rounding (the sums run in another order), the pattern is walked once
+  // per block row instead of once per scalar row, and the arithmetic is on
+  // fixed-size d x d blocks. `a` holds whole d x d blocks (the upper
+  // triangle of the diagonal ones), as for analyzeBlocks().
+  void factorizeBlocks(const Eigen::SparseMatrix<double>& a) {
+    if (block_ == 3) return factorizeFixed<3>(a);
+    factorize(a);
+  }
+
+ private:
+  template <int D>
+  void factorizeFixed(const Eigen::SparseMatrix<double>& a) {
+    using Block = Eigen::Matrix<double, D, D>;
+    using Column = Eigen::Matrix<double, D, 1>;
+    const int nb = static_cast<int>(block_parent_.size());
+    const int* ap = a.outerIndexPtr();
+    const int* ai = a.innerIndexPtr();
+    const double* ax = a.valuePtr();
+    const int* lp = m_matrix.outerIndexPtr();
+    int* li = m_matrix.innerIndexPtr();
+    double* lx = m_matrix.valuePtr();
+    work_.assign(static_cast<size_t>(nb) * D * D, 0.0);  // Y_I, column-major
+    tags_.assign(nb, -1);
+    pattern_.resize(nb);
+    stored_.assign(nb, 0);  // block rows stored below each diagonal block
+    auto y = [&](int block) { return Eigen::Map<Block>(work_.data() + static_cast<size_t>(block) * D * D); };
+    bool ok = true;
+    for (int k = 0; k < nb && ok; ++k) {
+      tags_[k] = k;
+      int top = nb;
+      Block diagonal = Block::Zero();
+      for (int c = 0; c < D; ++c) {
+        const int column = k * D + c;
+        for (int p = ap[column]; p < ap[column + 1]; ++p) {
+          const int row = ai[p];
+          const int i = row / D, r = row % D;
+          if (i == k) {
+            diagonal(r, c) = ax[p];
+            diagonal(c, r) = ax[p];
+            continue;
+          }
+          y(i)(r, c) += ax[p];
+          int length = 0;
+          for (int j = i; tags_[j] != k; j = block_parent_[j]) {
+            pattern_[length++] = j;
+            tags_[j] = k;
+          }
+          while (length > 0) pattern_[--top] = pattern_[--length];
+        }
+      }
+      for (; top < nb; ++top) {
+        const int i = pattern_[top];
+        Block lii = Block::Zero();
+        int base[D];
+        for (int c = 0; c < D; ++c) {
+          for (int r = c; r < D; ++r) lii(r, c) = lx[lp[i * D + c] + (r - c)];
+          base[c] = lp[i * D + c] + (D - c);
+        }
+        Eigen::Map<Block> yi = y(i);
+        Block x;  // L_II^-1 Y_I, by hand: Eigen's triangular solve takes its dynamic-size path here
+        for (int j = 0; j < D; ++j)
+          for (int r = 0; r < D; ++r) {
+            double sum = yi(r, j);
+            for (int c = 0; c < r; ++c) sum -= lii(r, c) * x(c, j);
+            x(r, j) = sum / lii(r, r);
+          }
+        yi.setZero();
+        for (int s = 0; s < stored_[i]; ++s) {
+          Block lri;
+          for (int c = 0; c < D; ++c) lri.col(c) = Eigen::Map<const Column>(lx + base[c] + D * s);
+          y(li[base[0] + D * s] / D).noalias() -= lri * x;
+        }
+        diagonal.noalias() -= x.transpose() * x;
+        for (int c = 0; c < D; ++c)
+          for (int r = 0; r < D; ++r) {
+            li[base[c] + D * stored_[i] + r] = k * D + r;
+            lx[base[c] + D * stored_[i] + r] = x(c, r);
+          }
+        ++stored_[i];
+      }
+      const Eigen::LLT<Block> llt(diagonal);
+      ok = llt.info() == Eigen::Success;
+      const Block lkk = llt.matrixL();
+      for (int c = 0; c < D; ++c)
+        for (int r = c; r < D; ++r) {
+          li[lp[k * D + c] + (r - c)] = k * D + r;
+          lx[lp[k * D + c] + (r - c)] = lkk(r, c);
+        }
+    }
+    m_info = ok ? Eigen::Success : Eigen::NumericalIssue;
+    m_factorizationIsOk = true;
+  }
+
+  int block_ = 0;
+  std::vector<int> block_parent_;
+  std::vector<double> work_;
+  std::vector<int> tags_, pattern_, stored_;
 };
 
 }  // namespace internal

@@ -509,7 +509,7 @@ bool SparsePoseGraphSolver::factorize() {
     iteration_flops_ = 4.0 * common.lnz + h_flops;
     return factor_valid_;
   }
-  decompositions_->simplicial.factorize(hessian_);
+  decompositions_->simplicial.factorizeBlocks(hessian_);
   factor_valid_ = decompositions_->simplicial.info() == Eigen::Success;
   if (factor_valid_) {
     // Cholesky costs the sum over L's columns of their squared lengths.

@@ -102,6 +102,54 @@ TEST(BlockSimplicialLLT, FactorsAsEigensScalarAnalysisDoes3D) {
   for (unsigned seed = 1; seed <= 10; ++seed) expectSameFactor(randomBlockMatrix(25, 10, 6, seed), 6);
 }
 
+// The block numeric factorisation against Eigen's scalar one: the same
+// pattern and storage, values equal to rounding, a solve as exact.
+void expectFactorAsEigens(const BlockMatrix& m, int d) {
+  Eigen::SimplicialLLT<Eigen::SparseMatrix<double>, Eigen::Upper, Eigen::NaturalOrdering<int>> eigen;
+  eigen.analyzePattern(m.upper);
+  eigen.factorize(m.upper);
+  ASSERT_EQ(eigen.info(), Eigen::Success);
+  BlockSimplicialLLT blocks;
+  blocks.analyzeBlocks(m.pattern, d);
+  blocks.factorizeBlocks(m.upper);
+  ASSERT_EQ(blocks.info(), Eigen::Success);
+
+  const Eigen::SparseMatrix<double>& expected = eigen.matrixL().nestedExpression();
+  const Eigen::SparseMatrix<double>& actual = blocks.matrixL().nestedExpression();
+  ASSERT_EQ(actual.nonZeros(), expected.nonZeros());
+  for (int k = 0; k <= expected.cols(); ++k) ASSERT_EQ(actual.outerIndexPtr()[k], expected.outerIndexPtr()[k]);
+  const double scale = Eigen::Map<const Eigen::VectorXd>(expected.valuePtr(), expected.nonZeros()).cwiseAbs().maxCoeff();
+  for (long k = 0; k < expected.nonZeros(); ++k) {
+    ASSERT_EQ(actual.innerIndexPtr()[k], expected.innerIndexPtr()[k]) << "entry " << k;
+    ASSERT_NEAR(actual.valuePtr()[k], expected.valuePtr()[k], 1e-13 * scale) << "entry " << k;
+  }
+  const Eigen::VectorXd rhs = Eigen::VectorXd::LinSpaced(m.upper.rows(), -1.0, 1.0);
+  const Eigen::VectorXd x = blocks.solve(rhs);
+  const Eigen::SparseMatrix<double> symmetric = m.upper.selfadjointView<Eigen::Upper>();
+  EXPECT_LT((symmetric * x - rhs).norm(), 1e-9 * rhs.norm());
+}
+
+TEST(BlockSimplicialLLT, BlockFactorisationAgreesWithEigens2D) {
+  for (unsigned seed = 1; seed <= 20; ++seed) expectFactorAsEigens(randomBlockMatrix(60, 25, 3, seed), 3);
+}
+
+TEST(BlockSimplicialLLT, BlockFactorisationFallsBackForOtherBlockSizes) {
+  for (unsigned seed = 1; seed <= 5; ++seed) expectFactorAsEigens(randomBlockMatrix(25, 10, 6, seed), 6);
+}
+
+TEST(BlockSimplicialLLT, BlockFactorisationRefusesAnIndefiniteMatrix) {
+  BlockMatrix m = randomBlockMatrix(30, 10, 3, 7);
+  // Block 20's diagonal made negative: positive definite no longer.
+  for (Eigen::SparseMatrix<double>::InnerIterator it(m.upper, 20 * 3 + 1); it; ++it)
+    if (it.row() == it.col()) it.valueRef() = -1e3;
+  BlockSimplicialLLT blocks;
+  blocks.analyzeBlocks(m.pattern, 3);
+  blocks.factorizeBlocks(m.upper);
+  EXPECT_EQ(blocks.info(), Eigen::NumericalIssue);
+  blocks.factorizeBlocks(randomBlockMatrix(30, 10, 3, 7).upper);  // and recovers on the next
+  EXPECT_EQ(blocks.info(), Eigen::Success);
+}
+
 // A forest: pairs only within two halves, so the block tree has two roots.
 TEST(BlockSimplicialLLT, FactorsADisconnectedPattern) {
   BlockMatrix m = randomBlockMatrix(10, 0, 3, 3);

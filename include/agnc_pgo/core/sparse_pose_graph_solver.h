@@ -10,8 +10,8 @@
 //
 // The pattern is ordered by AMD on the pose (block) graph, which is 9x (SE(2))
 // to 36x (SE(3)) smaller than the scalar pattern, and assembled already
-// permuted in upper-triangular form, so Eigen's simplicial Cholesky
-// factorises it in place (natural ordering, no copy). For SE(2) windows this
+// permuted in upper-triangular form, so a simplicial Cholesky (Eigen's,
+// on blocks) factorises it in place (natural ordering, no copy). For SE(2) windows this
 // beat CHOLMOD's supernodal factorisation, whose per-call overhead dominated;
 // SE(3) systems go to CHOLMOD (supernodal, its own AMD ordering).
 //
@@ -406,7 +406,8 @@ class SparsePoseGraphSolver {
   Eigen::VectorXd gradient_;
   // SE(2): Eigen's simplicial LLT on the block-AMD order (no per-call
   // overhead; on M3500 it beat CHOLMOD's supernodal LLT up to the full graph),
-  // its symbolic analysis done on the blocks (src/core/block_simplicial_llt.h).
+  // its symbolic analysis and numeric factorisation done on the 3x3 blocks
+  // (src/core/block_simplicial_llt.h).
   // SE(3): CHOLMOD's supernodal LLT, whose dense kernels win on 6x6 blocks.
   // Both live in the .cc file, so that CHOLMOD's headers stay out of the
   // installed ones.
