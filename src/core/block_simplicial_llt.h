@@ -108,92 +108,117 @@ class BlockSimplicialLLT
 
  private:
   template <int D>
+  using Block = Eigen::Matrix<double, D, D>;
+
+  template <int D>
+  Eigen::Map<Block<D>> rhs(int block) {  // Y_I, column-major in work_
+    return Eigen::Map<Block<D>>(work_.data() + static_cast<size_t>(block) * D * D);
+  }
+
+  template <int D>
   void factorizeFixed(const Eigen::SparseMatrix<double>& a) {
-    using Block = Eigen::Matrix<double, D, D>;
-    using Column = Eigen::Matrix<double, D, 1>;
     const int nb = static_cast<int>(block_parent_.size());
-    const int* ap = a.outerIndexPtr();
-    const int* ai = a.innerIndexPtr();
-    const double* ax = a.valuePtr();
-    const int* lp = m_matrix.outerIndexPtr();
-    int* li = m_matrix.innerIndexPtr();
-    double* lx = m_matrix.valuePtr();
-    work_.assign(static_cast<size_t>(nb) * D * D, 0.0);  // Y_I, column-major
+    work_.assign(static_cast<size_t>(nb) * D * D, 0.0);
     tags_.assign(nb, -1);
     pattern_.resize(nb);
-    stored_.assign(nb, 0);  // block rows stored below each diagonal block
-    auto y = [&](int block) { return Eigen::Map<Block>(work_.data() + static_cast<size_t>(block) * D * D); };
+    stored_.assign(nb, 0);
     bool ok = true;
     for (int k = 0; k < nb && ok; ++k) {
-      tags_[k] = k;
-      int top = nb;
-      Block diagonal = Block::Zero();
-      for (int c = 0; c < D; ++c) {
-        const int column = k * D + c;
-        for (int p = ap[column]; p < ap[column + 1]; ++p) {
-          const int row = ai[p];
-          const int i = row / D, r = row % D;
-          if (i == k) {
-            diagonal(r, c) = ax[p];
-            diagonal(c, r) = ax[p];
-            continue;
-          }
-          y(i)(r, c) += ax[p];
-          int length = 0;
-          for (int j = i; tags_[j] != k; j = block_parent_[j]) {
-            pattern_[length++] = j;
-            tags_[j] = k;
-          }
-          while (length > 0) pattern_[--top] = pattern_[--length];
-        }
-      }
-      for (; top < nb; ++top) {
-        const int i = pattern_[top];
-        Block lii = Block::Zero();
-        int base[D];
-        for (int c = 0; c < D; ++c) {
-          for (int r = c; r < D; ++r) lii(r, c) = lx[lp[i * D + c] + (r - c)];
-          base[c] = lp[i * D + c] + (D - c);
-        }
-        Eigen::Map<Block> yi = y(i);
-        Block x;  // L_II^-1 Y_I, by hand: Eigen's triangular solve takes its dynamic-size path here
-        for (int j = 0; j < D; ++j)
-          for (int r = 0; r < D; ++r) {
-            double sum = yi(r, j);
-            for (int c = 0; c < r; ++c) sum -= lii(r, c) * x(c, j);
-            x(r, j) = sum / lii(r, r);
-          }
-        yi.setZero();
-        for (int s = 0; s < stored_[i]; ++s) {
-          Block lri;
-          for (int c = 0; c < D; ++c) lri.col(c) = Eigen::Map<const Column>(lx + base[c] + D * s);
-          y(li[base[0] + D * s] / D).noalias() -= lri * x;
-        }
-        diagonal.noalias() -= x.transpose() * x;
-        for (int c = 0; c < D; ++c)
-          for (int r = 0; r < D; ++r) {
-            li[base[c] + D * stored_[i] + r] = k * D + r;
-            lx[base[c] + D * stored_[i] + r] = x(c, r);
-          }
-        ++stored_[i];
-      }
-      const Eigen::LLT<Block> llt(diagonal);
-      ok = llt.info() == Eigen::Success;
-      const Block lkk = llt.matrixL();
-      for (int c = 0; c < D; ++c)
-        for (int r = c; r < D; ++r) {
-          li[lp[k * D + c] + (r - c)] = k * D + r;
-          lx[lp[k * D + c] + (r - c)] = lkk(r, c);
-        }
+      Block<D> diagonal = Block<D>::Zero();
+      for (int top = scatterBlockColumn<D>(a, k, &diagonal); top < nb; ++top)
+        eliminateBlock<D>(pattern_[top], k, &diagonal);
+      ok = storeDiagonalBlock<D>(k, diagonal);
     }
     m_info = ok ? Eigen::Success : Eigen::NumericalIssue;
     m_factorizationIsOk = true;
   }
 
+  // A's block column k: its diagonal block into `diagonal`, the others
+  // added to Y_I; the row pattern of L's block row k, in topological order,
+  // left in pattern_[top, nb) (Eigen's path marking, on the block tree).
+  template <int D>
+  int scatterBlockColumn(const Eigen::SparseMatrix<double>& a, int k, Block<D>* diagonal) {
+    const int* ap = a.outerIndexPtr();
+    const int* ai = a.innerIndexPtr();
+    const double* ax = a.valuePtr();
+    int top = static_cast<int>(block_parent_.size());
+    tags_[k] = k;
+    for (int c = 0; c < D; ++c) {
+      for (int p = ap[k * D + c]; p < ap[k * D + c + 1]; ++p) {
+        const int i = ai[p] / D, r = ai[p] % D;
+        if (i == k) {
+          (*diagonal)(r, c) = (*diagonal)(c, r) = ax[p];
+          continue;
+        }
+        rhs<D>(i)(r, c) += ax[p];
+        int length = 0;
+        for (int j = i; tags_[j] != k; j = block_parent_[j]) {
+          pattern_[length++] = j;
+          tags_[j] = k;
+        }
+        while (length > 0) pattern_[--top] = pattern_[--length];
+      }
+    }
+    return top;
+  }
+
+  // One step of block row k's forward substitution: X = L_ii^-1 Y_i, then
+  // Y_R -= L_Ri X for the block rows R stored in block column i, the
+  // diagonal block's Schur complement, and L(k, i) = X^T stored.
+  template <int D>
+  void eliminateBlock(int i, int k, Block<D>* diagonal) {
+    const int* lp = m_matrix.outerIndexPtr();
+    int* li = m_matrix.innerIndexPtr();
+    double* lx = m_matrix.valuePtr();
+    Block<D> lii = Block<D>::Zero();
+    int base[D];  // where the block rows below the diagonal block start, per scalar column
+    for (int c = 0; c < D; ++c) {
+      for (int r = c; r < D; ++r) lii(r, c) = lx[lp[i * D + c] + (r - c)];
+      base[c] = lp[i * D + c] + (D - c);
+    }
+    Eigen::Map<Block<D>> yi = rhs<D>(i);
+    Block<D> x;  // by hand: Eigen's triangular solve takes its dynamic-size path here
+    for (int j = 0; j < D; ++j)
+      for (int r = 0; r < D; ++r) {
+        double sum = yi(r, j);
+        for (int c = 0; c < r; ++c) sum -= lii(r, c) * x(c, j);
+        x(r, j) = sum / lii(r, r);
+      }
+    yi.setZero();
+    for (int s = 0; s < stored_[i]; ++s) {
+      Block<D> lri;
+      for (int c = 0; c < D; ++c) lri.col(c) = Eigen::Map<const Eigen::Matrix<double, D, 1>>(lx + base[c] + D * s);
+      rhs<D>(li[base[0] + D * s] / D).noalias() -= lri * x;
+    }
+    diagonal->noalias() -= x.transpose() * x;
+    for (int c = 0; c < D; ++c)
+      for (int r = 0; r < D; ++r) {
+        li[base[c] + D * stored_[i] + r] = k * D + r;
+        lx[base[c] + D * stored_[i] + r] = x(c, r);
+      }
+    ++stored_[i];
+  }
+
+  // L_kk, the dense Cholesky factor of what is left of A_kk; false if that
+  // is not positive definite.
+  template <int D>
+  bool storeDiagonalBlock(int k, const Block<D>& diagonal) {
+    const int* lp = m_matrix.outerIndexPtr();
+    const Eigen::LLT<Block<D>> llt(diagonal);
+    const Block<D> lkk = llt.matrixL();
+    for (int c = 0; c < D; ++c)
+      for (int r = c; r < D; ++r) {
+        m_matrix.innerIndexPtr()[lp[k * D + c] + (r - c)] = k * D + r;
+        m_matrix.valuePtr()[lp[k * D + c] + (r - c)] = lkk(r, c);
+      }
+    return llt.info() == Eigen::Success;
+  }
+
   int block_ = 0;
   std::vector<int> block_parent_;
   std::vector<double> work_;
-  std::vector<int> tags_, pattern_, stored_;
+  std::vector<int> tags_, pattern_;
+  std::vector<int> stored_;  // block rows stored so far below each diagonal block
 };
 
 }  // namespace internal
