@@ -103,6 +103,7 @@ class BlockSimplicialLLT
   // triangle of the diagonal ones), as for analyzeBlocks().
   void factorizeBlocks(const Eigen::SparseMatrix<double>& a) {
     if (block_ == 3) return factorizeFixed<3>(a);
+    if (block_ == 6) return factorizeFixed<6>(a);
     factorize(a);
   }
 

@@ -1,5 +1,5 @@
-// Internal to the core's solvers (the engine's and the batch one, whose
-// Ceres solve factorises with CHOLMOD too).
+// Internal to the core's batch solver, whose Ceres solve factorises with
+// CHOLMOD.
 #pragma once
 
 #include <omp.h>

@@ -9,13 +9,11 @@
 #include <stdexcept>
 #include <string>
 
-#include <Eigen/CholmodSupport>
 #include <Eigen/LU>
 #include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
 
 #include "block_simplicial_llt.h"
-#include "cholmod_threads.h"
 
 namespace agnc_pgo {
 namespace core {
@@ -84,7 +82,6 @@ struct SparsePoseGraphSolver::VarianceTerms {
 
 struct SparsePoseGraphSolver::Decompositions {
   internal::BlockSimplicialLLT simplicial;
-  Eigen::CholmodDecomposition<Eigen::SparseMatrix<double>, Eigen::Upper> supernodal;
 };
 
 SparsePoseGraphSolver::~SparsePoseGraphSolver() = default;
@@ -102,13 +99,6 @@ SparsePoseGraphSolver::SparsePoseGraphSolver(int dimension, double shape_c)
       decompositions_(std::make_unique<Decompositions>()) {
   noise_scale_ = Eigen::VectorXd::Ones(tangent_);
   if (dimension != 2 && dimension != 3) throw std::invalid_argument("dimension must be 2 or 3");
-  // SE(3) (supernodal, see the header): CHOLMOD's AMD on the scalar
-  // pattern with a postordering gave a factor about twice as cheap as the
-  // block ordering on Sphere2500 (the dense 6x6 blocks form wide supernodes).
-  cholmod_common& common = decompositions_->supernodal.cholmod();
-  common.nmethods = 1;
-  common.method[0].ordering = CHOLMOD_AMD;
-  common.supernodal = CHOLMOD_SUPERNODAL;
 }
 
 int SparsePoseGraphSolver::addPose(const Pose& initial) {
@@ -289,12 +279,7 @@ void SparsePoseGraphSolver::buildStructure(int first) {
   gradient_.resize(static_cast<long>(nv) * tangent_);
   factor_valid_ = false;
   model_known_ = false;
-  if (supernodal_) {
-    keepCholmodSerial();
-    decompositions_->supernodal.analyzePattern(hessian_);
-  } else {
-    decompositions_->simplicial.analyzeBlocks(pattern, tangent_);
-  }
+  decompositions_->simplicial.analyzeBlocks(pattern, tangent_);
   structure_first_ = first;
   structure_poses_ = numPoses();
   structure_factors_ = numFactors();
@@ -364,30 +349,24 @@ internal::BlockPattern blockPattern(int nv, const std::vector<std::pair<int, int
 
 void SparsePoseGraphSolver::orderVariables(int nv) {
   // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
-  // block row of variable v in the permuted Hessian. CHOLMOD (SE(3)) orders
-  // the scalar pattern itself, so there the variables keep their order.
-  supernodal_ = tangent_ == 6;
+  // block row of variable v in the permuted Hessian.
   position_.resize(nv);
-  if (supernodal_) {
-    for (int v = 0; v < nv; ++v) position_[v] = v;
-  } else {
-    // AMD wants both triangles and the diagonal, sorted: built as such
-    // rather than symmetrised from triplets (Eigen's AMDOrdering would do
-    // that twice).
-    std::vector<std::pair<int, int>> pairs;
-    pairs.reserve(slots_.size());
-    for (const FactorSlot& s : slots_)
-      if (s.coupled) pairs.emplace_back(s.ia, s.ib);
-    const internal::BlockPattern symmetric = blockPattern(nv, pairs, true);
-    Eigen::SparseMatrix<double> c(nv, nv);
-    c.resizeNonZeros(static_cast<long>(symmetric.rows.size()));
-    std::copy(symmetric.start.begin(), symmetric.start.end(), c.outerIndexPtr());
-    std::copy(symmetric.rows.begin(), symmetric.rows.end(), c.innerIndexPtr());
-    std::fill(c.valuePtr(), c.valuePtr() + c.nonZeros(), 1.0);
-    Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
-    Eigen::internal::minimum_degree_ordering(c, order);
-    for (int k = 0; k < nv; ++k) position_[order.indices()[k]] = k;
-  }
+  // AMD wants both triangles and the diagonal, sorted: built as such
+  // rather than symmetrised from triplets (Eigen's AMDOrdering would do
+  // that twice).
+  std::vector<std::pair<int, int>> pairs;
+  pairs.reserve(slots_.size());
+  for (const FactorSlot& s : slots_)
+    if (s.coupled) pairs.emplace_back(s.ia, s.ib);
+  const internal::BlockPattern symmetric = blockPattern(nv, pairs, true);
+  Eigen::SparseMatrix<double> c(nv, nv);
+  c.resizeNonZeros(static_cast<long>(symmetric.rows.size()));
+  std::copy(symmetric.start.begin(), symmetric.start.end(), c.outerIndexPtr());
+  std::copy(symmetric.rows.begin(), symmetric.rows.end(), c.innerIndexPtr());
+  std::fill(c.valuePtr(), c.valuePtr() + c.nonZeros(), 1.0);
+  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
+  Eigen::internal::minimum_degree_ordering(c, order);
+  for (int k = 0; k < nv; ++k) position_[order.indices()[k]] = k;
   for (FactorSlot& s : slots_) {
     if (s.ia >= 0) s.ia = position_[s.ia];
     if (s.ib >= 0) s.ib = position_[s.ib];
@@ -500,15 +479,6 @@ void SparsePoseGraphSolver::prepare(int first) {
 bool SparsePoseGraphSolver::factorize() {
   const double h_flops = 4.0 * static_cast<double>(hessian_.nonZeros());  // symmetric product, upper stored
   ++factorizations_;
-  if (supernodal_) {
-    keepCholmodSerial();
-    decompositions_->supernodal.factorize(hessian_);
-    factor_valid_ = decompositions_->supernodal.info() == Eigen::Success;
-    const cholmod_common& common = decompositions_->supernodal.cholmod();
-    factorization_flops_ = common.fl;
-    iteration_flops_ = 4.0 * common.lnz + h_flops;
-    return factor_valid_;
-  }
   decompositions_->simplicial.factorizeBlocks(hessian_);
   factor_valid_ = decompositions_->simplicial.info() == Eigen::Success;
   if (factor_valid_) {
@@ -608,10 +578,6 @@ void SparsePoseGraphSolver::rememberModel(double gradient_norm, const Eigen::Vec
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
-  if (supernodal_) {
-    keepCholmodSerial();
-    return decompositions_->supernodal.solve(rhs);
-  }
   return decompositions_->simplicial.solve(rhs);
 }
 
@@ -837,7 +803,6 @@ unsigned SparsePoseGraphSolver::runSearch(PathSearch* search, int from, int to) 
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::relativeCovariance(const Eigen::MatrixXd& jt, long first_row) {
-  if (supernodal_) return jt.transpose() * solve(jt);
   // J H^-1 J^T = (L^-1 J^T)^T (L^-1 J^T), H = L L^T. J^T is zero above
   // first_row, and so is L^-1 J^T; below, only the columns of L that the
   // forward substitution reaches from there (the elimination tree's paths

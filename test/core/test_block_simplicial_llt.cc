@@ -119,21 +119,27 @@ TEST(BlockSimplicialLLT, BlockFactorisationAgreesWithEigens2D) {
   for (unsigned seed = 1; seed <= 20; ++seed) expectFactorAsEigens(randomBlockMatrix(60, 25, 3, seed), 3, Numeric::kBlocks);
 }
 
+TEST(BlockSimplicialLLT, BlockFactorisationAgreesWithEigens3D) {
+  for (unsigned seed = 1; seed <= 10; ++seed) expectFactorAsEigens(randomBlockMatrix(40, 15, 6, seed), 6, Numeric::kBlocks);
+}
+
 TEST(BlockSimplicialLLT, BlockFactorisationFallsBackForOtherBlockSizes) {
-  for (unsigned seed = 1; seed <= 5; ++seed) expectFactorAsEigens(randomBlockMatrix(25, 10, 6, seed), 6, Numeric::kBlocks);
+  for (unsigned seed = 1; seed <= 5; ++seed) expectFactorAsEigens(randomBlockMatrix(25, 10, 4, seed), 4, Numeric::kBlocks);
 }
 
 TEST(BlockSimplicialLLT, BlockFactorisationRefusesAnIndefiniteMatrix) {
-  BlockMatrix m = randomBlockMatrix(30, 10, 3, 7);
-  // Block 20's diagonal made negative: positive definite no longer.
-  for (Eigen::SparseMatrix<double>::InnerIterator it(m.upper, 20 * 3 + 1); it; ++it)
-    if (it.row() == it.col()) it.valueRef() = -1e3;
-  BlockSimplicialLLT blocks;
-  blocks.analyzeBlocks(m.pattern, 3);
-  blocks.factorizeBlocks(m.upper);
-  EXPECT_EQ(blocks.info(), Eigen::NumericalIssue);
-  blocks.factorizeBlocks(randomBlockMatrix(30, 10, 3, 7).upper);  // and recovers on the next
-  EXPECT_EQ(blocks.info(), Eigen::Success);
+  for (int d : {3, 6}) {
+    BlockMatrix m = randomBlockMatrix(30, 10, d, 7);
+    // Block 20's diagonal made negative: positive definite no longer.
+    for (Eigen::SparseMatrix<double>::InnerIterator it(m.upper, 20 * d + 1); it; ++it)
+      if (it.row() == it.col()) it.valueRef() = -1e3;
+    BlockSimplicialLLT blocks;
+    blocks.analyzeBlocks(m.pattern, d);
+    blocks.factorizeBlocks(m.upper);
+    EXPECT_EQ(blocks.info(), Eigen::NumericalIssue) << "d = " << d;
+    blocks.factorizeBlocks(randomBlockMatrix(30, 10, d, 7).upper);  // and recovers on the next
+    EXPECT_EQ(blocks.info(), Eigen::Success) << "d = " << d;
+  }
 }
 
 // A forest: pairs only within two halves, so the block tree has two roots.

@@ -2,7 +2,6 @@
 // ceres::Solve on the same graphs.
 #include <gtest/gtest.h>
 
-#include "omp_levels.h"
 #include "shared_datasets.h"
 
 #include <Eigen/Eigenvalues>
@@ -286,17 +285,6 @@ TEST(SparsePoseGraphSolver, FullWeightFactorIsSolvedPlainAndPricedRobust) {
   const double r = solver.whitenedNorm(loop);
   EXPECT_NEAR(r * 81.0 / ((9.0 + r * r) * (9.0 + r * r)), 2.0 - r, 1e-6);
   EXPECT_GT(r, 1.1);
-}
-
-// CHOLMOD's own OpenMP team is switched off for the thread that factorises
-// (see keepCholmodSerial), and for that thread only: a nodelet manager's other
-// threads keep their parallelism.
-TEST(SparsePoseGraphSolver, Se3FactorisationIsSerialOnlyOnItsOwnThread) {
-  AGNC_PGO_SKIP_WITHOUT_SHARED_DATASETS();
-  const OmpLevels levels =
-      ompLevelsAfter([] { auto solver = solveIncrementalSolver(readG2o(dataset("tinyGrid3D.g2o")), 1); });
-  EXPECT_EQ(levels.on_working_thread, 0);
-  EXPECT_GT(levels.on_other_thread, 0);
 }
 
 TEST(SparsePoseGraphSolver, RejectsUnknownPosesAndBadInformation) {
@@ -603,8 +591,7 @@ TEST(SparsePoseGraphSolver, PathPredictionBoundsTheMapsFromAbove) {
 // Between the iterations of a solve the Hessian changes little -- here the
 // weights of three loop closures (a low-rank change) near the optimum --
 // and the step is found with the last factor as CG's preconditioner, as
-// exactly as a new factorisation finds it (SE(2): Eigen's simplicial
-// factor; SE(3): CHOLMOD's supernodal one).
+// exactly as a new factorisation finds it (in 2-D and in 3-D).
 // The lattice at its minimum, then three loop closures graduated to mu = 1:
 // `reused` carries on with its last factor, `fresh` starts at the same
 // estimate (a pose set from outside leaves no model: its first step is

@@ -11,9 +11,11 @@
 // The pattern is ordered by AMD on the pose (block) graph, which is 9x (SE(2))
 // to 36x (SE(3)) smaller than the scalar pattern, and assembled already
 // permuted in upper-triangular form, so a simplicial Cholesky (Eigen's,
-// on blocks) factorises it in place (natural ordering, no copy). For SE(2) windows this
-// beat CHOLMOD's supernodal factorisation, whose per-call overhead dominated;
-// SE(3) systems go to CHOLMOD (supernodal, its own AMD ordering).
+// on blocks) factorises it in place (natural ordering, no copy). In 2-D and
+// in 3-D this beat CHOLMOD's supernodal factorisation: its per-call overhead
+// dominated the windows, and on fixed-size 3x3 / 6x6 blocks the simplicial
+// one kept up on whole graphs (Sphere2500) although its AMD order on the
+// blocks leaves more fill than CHOLMOD's on the scalars.
 //
 // A solve can be restricted to a window: poses with id >= first_variable are
 // variables; older poses are held fixed and only factors touching a variable
@@ -404,14 +406,10 @@ class SparsePoseGraphSolver {
   std::vector<int> position_;  // variable -> block row of the permuted Hessian
   Eigen::SparseMatrix<double> hessian_;
   Eigen::VectorXd gradient_;
-  // SE(2): Eigen's simplicial LLT on the block-AMD order (no per-call
-  // overhead; on M3500 it beat CHOLMOD's supernodal LLT up to the full graph),
-  // its symbolic analysis and numeric factorisation done on the 3x3 blocks
-  // (src/core/block_simplicial_llt.h).
-  // SE(3): CHOLMOD's supernodal LLT, whose dense kernels win on 6x6 blocks.
-  // Both live in the .cc file, so that CHOLMOD's headers stay out of the
-  // installed ones.
-  bool supernodal_ = false;
+  // Eigen's simplicial LLT on the block-AMD order, its symbolic analysis and
+  // numeric factorisation done on the 3x3 (SE(2)) or 6x6 (SE(3)) blocks
+  // (src/core/block_simplicial_llt.h; in the .cc file, so that its header
+  // stays out of the installed ones).
   // The decomposition holds a factor of this structure's pattern (of an
   // earlier linearisation), and what using it costs, in flops: a new
   // factorisation, and one preconditioned CG iteration (two triangular
