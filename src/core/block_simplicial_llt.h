@@ -107,87 +107,9 @@ class BlockSimplicialLLT
     factorize(a);
   }
 
-  // Solves L L^T X = B after factorize() or factorizeBlocks(), column by
-  // column of B, on the block layout analyzeBlocks() gave L (per scalar
-  // column: the diagonal block's lower part, then d entries per block row
-  // below it, block rows ascending). The same operations in the same order
-  // as Eigen's solve() on this factor -- the forward substitution by
-  // columns, the backward one by rows of L^T -- so the same result to the
-  // bit, without the sparse iterators and per-entry row lookups.
-  Eigen::MatrixXd solveBlocks(const Eigen::MatrixXd& b) const {
-    if (block_ == 3) return solveFixed<3>(b);
-    if (block_ == 6) return solveFixed<6>(b);
-    return solve(b);
-  }
-
  private:
   template <int D>
   using Block = Eigen::Matrix<double, D, D>;
-
-  template <int D>
-  Eigen::MatrixXd solveFixed(const Eigen::MatrixXd& b) const {
-    Eigen::MatrixXd x = b;
-    for (long col = 0; col < x.cols(); ++col) {
-      forwardSubstitution<D>(x.col(col).data());
-      backSubstitution<D>(x.col(col).data());
-    }
-    return x;
-  }
-
-  // L y = b in place: each scalar column's value is final once the columns
-  // before it have been subtracted; then it is subtracted from the rows
-  // below it (Eigen skips a zero value: subtracting 0 * L changes nothing).
-  template <int D>
-  void forwardSubstitution(double* x) const {
-    const int* lp = m_matrix.outerIndexPtr();
-    const int* li = m_matrix.innerIndexPtr();
-    const double* lx = m_matrix.valuePtr();
-    const int nb = static_cast<int>(block_parent_.size());
-    for (int j = 0; j < nb; ++j) {
-      double* xj = x + j * D;
-      for (int c = 0; c < D; ++c) {
-        if (xj[c] == 0.0) continue;
-        const double* column = lx + lp[j * D + c];
-        xj[c] /= column[0];
-        for (int r = c + 1; r < D; ++r) xj[r] -= xj[c] * column[r - c];
-      }
-      const int below = (lp[j * D + 1] - lp[j * D] - D) / D;
-      for (int t = 0; t < below; ++t) {
-        double* xr = x + li[lp[j * D] + D + D * t];
-        for (int c = 0; c < D; ++c) {
-          if (xj[c] == 0.0) continue;
-          const double* entries = lx + lp[j * D + c] + (D - c) + D * t;
-          for (int r = 0; r < D; ++r) xr[r] -= xj[c] * entries[r];
-        }
-      }
-    }
-  }
-
-  // L^T x = y in place, last row first: each value is its right-hand side
-  // minus L's column below it times the values already found, in storage
-  // order, over the diagonal.
-  template <int D>
-  void backSubstitution(double* x) const {
-    const int* lp = m_matrix.outerIndexPtr();
-    const int* li = m_matrix.innerIndexPtr();
-    const double* lx = m_matrix.valuePtr();
-    const int nb = static_cast<int>(block_parent_.size());
-    for (int j = nb - 1; j >= 0; --j) {
-      double* xj = x + j * D;
-      const int below = (lp[j * D + 1] - lp[j * D] - D) / D;
-      for (int c = D - 1; c >= 0; --c) {
-        const double* column = lx + lp[j * D + c];
-        double sum = xj[c];
-        for (int r = c + 1; r < D; ++r) sum -= column[r - c] * xj[r];
-        for (int t = 0; t < below; ++t) {
-          const double* xr = x + li[lp[j * D] + D + D * t];
-          const double* entries = column + (D - c) + D * t;
-          for (int r = 0; r < D; ++r) sum -= entries[r] * xr[r];
-        }
-        xj[c] = sum / column[0];
-      }
-    }
-  }
 
   template <int D>
   Eigen::Map<Block<D>> rhs(int block) {  // Y_I, column-major in work_

@@ -578,7 +578,7 @@ void SparsePoseGraphSolver::rememberModel(double gradient_norm, const Eigen::Vec
 }
 
 Eigen::MatrixXd SparsePoseGraphSolver::solve(const Eigen::MatrixXd& rhs) {
-  return decompositions_->simplicial.solveBlocks(rhs);
+  return decompositions_->simplicial.solve(rhs);
 }
 
 std::vector<SparsePoseGraphSolver::Prediction> SparsePoseGraphSolver::predict(const std::vector<int>& factors,

@@ -105,16 +105,6 @@ void expectFactorAsEigens(const BlockMatrix& m, int d, Numeric numeric) {
   const Eigen::VectorXd x = blocks.solve(rhs);
   const Eigen::SparseMatrix<double> symmetric = m.upper.selfadjointView<Eigen::Upper>();
   EXPECT_LT((symmetric * x - rhs).norm(), 1e-9 * rhs.norm());
-  // The block solve: Eigen's operations in Eigen's order, on several
-  // right-hand sides (one with zeros, which Eigen's forward pass skips).
-  Eigen::MatrixXd several(m.upper.rows(), 3);
-  several.col(0) = rhs;
-  several.col(1) = Eigen::VectorXd::LinSpaced(m.upper.rows(), 2.0, -3.0).array().square();
-  several.col(2) = Eigen::VectorXd::Zero(m.upper.rows());
-  several(several.rows() / 2, 2) = 1.0;
-  const Eigen::MatrixXd expected_x = blocks.solve(several);
-  const Eigen::MatrixXd actual_x = blocks.solveBlocks(several);
-  for (long k = 0; k < expected_x.size(); ++k) ASSERT_EQ(actual_x.data()[k], expected_x.data()[k]) << "entry " << k;
 }
 
 TEST(BlockSimplicialLLT, FactorsAsEigensScalarAnalysisDoes2D) {
