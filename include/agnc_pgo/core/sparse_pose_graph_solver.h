@@ -12,10 +12,11 @@
 // to 36x (SE(3)) smaller than the scalar pattern, and assembled already
 // permuted in upper-triangular form, so a simplicial Cholesky (Eigen's,
 // on blocks) factorises it in place (natural ordering, no copy). In 2-D and
-// in 3-D this beat CHOLMOD's supernodal factorisation: its per-call overhead
-// dominated the windows, and on fixed-size 3x3 / 6x6 blocks the simplicial
-// one kept up on whole graphs (Sphere2500) although its AMD order on the
-// blocks leaves more fill than CHOLMOD's on the scalars.
+// in 3-D this beat CHOLMOD's supernodal factorisation over whole replays:
+// CHOLMOD's per-call overhead dominated the windows. A whole SE(3) graph
+// factorised from scratch costs more this way (Sphere2500: about 1.7x, more
+// fill from the block order and no BLAS-3 supernodes), but an incremental
+// run rarely does that (doc/performance.md, "SE(3) on 6 x 6 blocks").
 //
 // A solve can be restricted to a window: poses with id >= first_variable are
 // variables; older poses are held fixed and only factors touching a variable
