@@ -10,8 +10,9 @@
 #include <string>
 
 #include <Eigen/LU>
-#include <Eigen/OrderingMethods>
 #include <Eigen/SparseCholesky>
+
+#include <amd.h>
 
 #include "block_simplicial_llt.h"
 
@@ -348,25 +349,25 @@ internal::BlockPattern blockPattern(int nv, const std::vector<std::pair<int, int
 }  // namespace
 
 void SparsePoseGraphSolver::orderVariables(int nv) {
-  // Fill-reducing ordering (AMD) of the block pattern: position_[v] is the
-  // block row of variable v in the permuted Hessian.
+  // Fill-reducing ordering of the block pattern by SuiteSparse's AMD
+  // (Amestoy, Davis & Duff): position_[v] is the block row of variable v in
+  // the permuted Hessian. Eigen's minimum_degree_ordering (CSparse's
+  // simpler AMD) left more fill on the same block graphs: the factor of the
+  // whole of Sphere2500 cost 2.65e6 block flops (sum of squared column
+  // counts) against 1.81e6, a 5 000-pose 3-D grid 1.71e6 against 1.55e6,
+  // M3500 2.70e5 against 2.55e5.
   position_.resize(nv);
-  // AMD wants both triangles and the diagonal, sorted: built as such
-  // rather than symmetrised from triplets (Eigen's AMDOrdering would do
-  // that twice).
   std::vector<std::pair<int, int>> pairs;
   pairs.reserve(slots_.size());
   for (const FactorSlot& s : slots_)
     if (s.coupled) pairs.emplace_back(s.ia, s.ib);
+  // Both triangles, sorted and without duplicates: what amd_order reads
+  // fastest (it skips the diagonal).
   const internal::BlockPattern symmetric = blockPattern(nv, pairs, true);
-  Eigen::SparseMatrix<double> c(nv, nv);
-  c.resizeNonZeros(static_cast<long>(symmetric.rows.size()));
-  std::copy(symmetric.start.begin(), symmetric.start.end(), c.outerIndexPtr());
-  std::copy(symmetric.rows.begin(), symmetric.rows.end(), c.innerIndexPtr());
-  std::fill(c.valuePtr(), c.valuePtr() + c.nonZeros(), 1.0);
-  Eigen::PermutationMatrix<Eigen::Dynamic, Eigen::Dynamic, int> order;
-  Eigen::internal::minimum_degree_ordering(c, order);
-  for (int k = 0; k < nv; ++k) position_[order.indices()[k]] = k;
+  std::vector<int> order(nv);
+  const int status = amd_order(nv, symmetric.start.data(), symmetric.rows.data(), order.data(), nullptr, nullptr);
+  if (status != AMD_OK) throw std::runtime_error("AMD ordering failed (status " + std::to_string(status) + ")");
+  for (int k = 0; k < nv; ++k) position_[order[k]] = k;
   for (FactorSlot& s : slots_) {
     if (s.ia >= 0) s.ia = position_[s.ia];
     if (s.ib >= 0) s.ib = position_[s.ib];
