@@ -14,9 +14,10 @@
 // on blocks) factorises it in place (natural ordering, no copy). In 2-D and
 // in 3-D this beat CHOLMOD's supernodal factorisation over whole replays:
 // CHOLMOD's per-call overhead dominated the windows. A whole SE(3) graph
-// factorised from scratch costs more this way (Sphere2500: about 1.7x, more
-// fill from the block order and no BLAS-3 supernodes), but an incremental
-// run rarely does that (doc/performance.md, "SE(3) on 6 x 6 blocks").
+// factorised from scratch costs more this way (Sphere2500: about 1.2x with
+// SuiteSparse's AMD on the blocks, 1.7x with Eigen's; no BLAS-3 supernodes),
+// but an incremental run rarely does that (doc/performance.md, "SE(3) on
+// 6 x 6 blocks" and "SuiteSparse's AMD for the block order").
 //
 // A solve can be restricted to a window: poses with id >= first_variable are
 // variables; older poses are held fixed and only factors touching a variable
