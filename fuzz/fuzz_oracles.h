@@ -49,6 +49,10 @@ inline void checkGraph(const core::PoseGraph& g) {
     checkInformation(e.information, g.tangentDimension());
   }
   for (int id : g.fixed) AGNC_FUZZ_CHECK(id >= 0 && id < n);
+  // The file's ids, where kept, name every pose once and in order.
+  AGNC_FUZZ_CHECK(g.file_ids.empty() || static_cast<int>(g.file_ids.size()) == n);
+  for (size_t k = 0; k < g.file_ids.size(); ++k)
+    AGNC_FUZZ_CHECK(g.file_ids[k] >= 0 && (k == 0 || g.file_ids[k] > g.file_ids[k - 1]));
 }
 
 inline std::string g2oText(const core::PoseGraph& g) {
@@ -64,6 +68,7 @@ inline void checkRoundTrip(const core::PoseGraph& g) {
   const core::PoseGraph back = core::readG2o(in, "round-trip");  // must not throw
   checkGraph(back);
   AGNC_FUZZ_CHECK(back.poses.size() == g.poses.size() && back.edges.size() == g.edges.size());
+  AGNC_FUZZ_CHECK(back.file_ids == g.file_ids);
   AGNC_FUZZ_CHECK(g2oText(back) == text);
 }
 

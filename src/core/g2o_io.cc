@@ -9,7 +9,6 @@
 #include <iomanip>
 #include <limits>
 #include <map>
-#include <set>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -163,16 +162,16 @@ class G2oReader {
     if (vertices_.empty() && edges_.empty()) fail({name_, last_line}, "no vertices and no edges");
     PoseGraph graph;
     graph.dimension = dimension_ == 0 ? 2 : dimension_;
+    numberPoses(&graph);
     if (vertices_.empty()) {
       buildFromEdgesOnly(&graph);
     } else {
       buildFromVertices(&graph);
     }
     for (const FixRecord& fix : fixes_) {
-      if (fix.id >= static_cast<int>(graph.poses.size())) {
-        fail({name_, fix.line}, "FIX references unknown vertex " + std::to_string(fix.id));
-      }
-      graph.fixed.push_back(fix.id);
+      const auto found = index_.find(fix.id);
+      if (found == index_.end()) fail({name_, fix.line}, "FIX references unknown vertex " + std::to_string(fix.id));
+      graph.fixed.push_back(found->second);
     }
     return graph;
   }
@@ -242,7 +241,6 @@ class G2oReader {
     edge.to = to;
     edge.measurement = measurement;
     edge.information = std::move(information);
-    edge.kind = classifyEdge(from, to);
     edges_.push_back({where.line, edge});
   }
 
@@ -294,47 +292,54 @@ class G2oReader {
     for (size_t i = 1; i < t.size(); ++i) fixes_.push_back({where.line, parseId(where, t[i])});
   }
 
-  // Vertices define the ids; they must be 0..N-1 and every edge must use them.
+  // The poses are the file's ids in increasing order: the vertices', or
+  // without vertices those the edges use. g2o numbers poses in the order
+  // they were taken, and a skipped id (a keyframe a front-end dropped) is
+  // not a pose, so pose i is the i-th id and the edge between two
+  // neighbours in that order is odometry. Ids other than 0..n-1 are kept
+  // in graph->file_ids for writeG2o.
+  void numberPoses(PoseGraph* graph) {
+    std::vector<int> ids;
+    for (const VertexRecord& v : vertices_) ids.push_back(v.id);
+    if (vertices_.empty())
+      for (const EdgeRecord& e : edges_) ids.insert(ids.end(), {e.edge.from, e.edge.to});
+    std::sort(ids.begin(), ids.end());
+    ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+    for (size_t i = 0; i < ids.size(); ++i) index_.emplace(ids[i], static_cast<int>(i));
+    if (!ids.empty() && ids.back() != static_cast<int>(ids.size()) - 1) graph->file_ids = ids;
+  }
+
+  // Every edge must use the vertices' ids; it is renumbered as the poses are.
   void buildFromVertices(PoseGraph* graph) {
-    const int n = static_cast<int>(vertices_.size());
-    graph->poses.resize(n);
-    for (const VertexRecord& v : vertices_) {
-      if (v.id >= n) {
-        fail({name_, v.line}, "vertex id " + std::to_string(v.id) +
-                                  " breaks the contiguous range 0.." + std::to_string(n - 1));
-      }
-      graph->poses[v.id] = v.pose;
-    }
+    graph->poses.resize(vertices_.size());
+    for (const VertexRecord& v : vertices_) graph->poses[index_.at(v.id)] = v.pose;
     for (const EdgeRecord& e : edges_) {
       for (int id : {e.edge.from, e.edge.to}) {
         if (!vertex_lines_.count(id)) {
           fail({name_, e.line}, "edge references unknown vertex " + std::to_string(id));
         }
       }
-      graph->edges.push_back(e.edge);
+      graph->edges.push_back(renumbered(e.edge));
     }
   }
 
   // No vertices: the referenced ids define the poses, composed from odometry.
   void buildFromEdgesOnly(PoseGraph* graph) {
-    std::set<int> ids;
-    for (const EdgeRecord& e : edges_) ids.insert({e.edge.from, e.edge.to});
-    const int n = static_cast<int>(ids.size());
-    for (const EdgeRecord& e : edges_) {
-      const int id = std::max(e.edge.from, e.edge.to);
-      if (id >= n) {
-        fail({name_, e.line}, "id " + std::to_string(id) + " breaks the contiguous range 0.." +
-                                  std::to_string(n - 1) + " of the ids used by edges");
-      }
-      graph->edges.push_back(e.edge);
-    }
-    graph->poses.assign(n, Pose::identity());
+    for (const EdgeRecord& e : edges_) graph->edges.push_back(renumbered(e.edge));
+    graph->poses.assign(index_.size(), Pose::identity());
     try {
       initializeFromOdometry(graph);
     } catch (const std::runtime_error& error) {
       throw std::runtime_error(name_ + ": " + error.what());
     }
     checkComposedPoses(*graph);
+  }
+
+  Edge renumbered(Edge edge) const {
+    edge.from = index_.at(edge.from);
+    edge.to = index_.at(edge.to);
+    edge.kind = classifyEdge(edge.from, edge.to);
+    return edge;
   }
 
   // Odometry that composes beyond kMaxAbsCoordinate (or to inf) is refused at
@@ -344,12 +349,14 @@ class G2oReader {
       const Eigen::Vector3d& t = graph.poses[k].translation;
       if (t.allFinite() && t.cwiseAbs().maxCoeff() <= kMaxAbsCoordinate) continue;
       int line = edges_.empty() ? 0 : edges_.back().line;
-      for (const EdgeRecord& e : edges_)
-        if (std::max(e.edge.from, e.edge.to) == static_cast<int>(k) && std::abs(e.edge.from - e.edge.to) == 1) {
+      for (const EdgeRecord& e : edges_) {
+        const Edge edge = renumbered(e.edge);
+        if (std::max(edge.from, edge.to) == static_cast<int>(k) && edge.kind == EdgeKind::kOdometry) {
           line = e.line;
           break;
         }
-      fail({name_, line}, "composing the odometry puts pose " + std::to_string(k) +
+      }
+      fail({name_, line}, "composing the odometry puts pose " + std::to_string(graph.fileId(static_cast<int>(k))) +
                               " at an implausible position (beyond 1e9 m)");
     }
   }
@@ -359,6 +366,7 @@ class G2oReader {
   int dimension_line_ = 0;
   std::vector<VertexRecord, Eigen::aligned_allocator<VertexRecord>> vertices_;
   std::map<int, int> vertex_lines_;  // id -> line of its VERTEX
+  std::map<int, int> index_;         // id -> pose index (numberPoses)
   std::vector<EdgeRecord> edges_;
   std::vector<FixRecord> fixes_;
   int header_line_ = 0, trailer_line_ = 0;
@@ -421,11 +429,24 @@ void checkFinite(const PoseGraph& graph) {
   }
 }
 
+// The file ids must read back as the same poses: one per pose, increasing.
+void checkFileIds(const PoseGraph& graph) {
+  if (graph.file_ids.empty()) return;
+  if (graph.file_ids.size() != graph.poses.size())
+    throw std::invalid_argument("writeG2o: " + std::to_string(graph.file_ids.size()) + " file ids for " +
+                                std::to_string(graph.poses.size()) + " poses");
+  for (size_t k = 0; k < graph.file_ids.size(); ++k)
+    if (graph.file_ids[k] < 0 || (k > 0 && graph.file_ids[k] <= graph.file_ids[k - 1]))
+      throw std::invalid_argument("writeG2o: file ids must be non-negative and increasing (pose " +
+                                  std::to_string(k) + ")");
+}
+
 void writeG2o(const PoseGraph& graph, std::ostream& out) {
   if (graph.dimension != 2 && graph.dimension != 3) {
     throw std::invalid_argument("writeG2o: dimension must be 2 or 3");
   }
   checkFinite(graph);
+  checkFileIds(graph);
   const bool planar = graph.dimension == 2;
   const std::streamsize old_precision = out.precision(std::numeric_limits<double>::max_digits10);
   const std::ios_base::fmtflags old_flags = out.flags();
@@ -436,10 +457,10 @@ void writeG2o(const PoseGraph& graph, std::ostream& out) {
   for (size_t id = 0; id < graph.poses.size(); ++id) {
     const Pose& p = graph.poses[id];
     if (planar) {
-      out << "VERTEX_SE2 " << id << ' ' << p.translation.x() << ' ' << p.translation.y() << ' '
+      out << "VERTEX_SE2 " << graph.fileId(static_cast<int>(id)) << ' ' << p.translation.x() << ' ' << p.translation.y() << ' '
           << roundTripYaw(p) << '\n';
     } else {
-      out << "VERTEX_SE3:QUAT " << id << ' ';
+      out << "VERTEX_SE3:QUAT " << graph.fileId(static_cast<int>(id)) << ' ';
       writeTranslationQuaternion(p, out);
       out << '\n';
     }
@@ -447,16 +468,16 @@ void writeG2o(const PoseGraph& graph, std::ostream& out) {
   for (const Edge& e : graph.edges) {
     const Pose& z = e.measurement;
     if (planar) {
-      out << "EDGE_SE2 " << e.from << ' ' << e.to << ' ' << z.translation.x() << ' '
+      out << "EDGE_SE2 " << graph.fileId(e.from) << ' ' << graph.fileId(e.to) << ' ' << z.translation.x() << ' '
           << z.translation.y() << ' ' << roundTripYaw(z);
     } else {
-      out << "EDGE_SE3:QUAT " << e.from << ' ' << e.to << ' ';
+      out << "EDGE_SE3:QUAT " << graph.fileId(e.from) << ' ' << graph.fileId(e.to) << ' ';
       writeTranslationQuaternion(z, out);
     }
     writeUpperTriangle(e.information, graph.tangentDimension(), out);
     out << '\n';
   }
-  for (int id : graph.fixed) out << "FIX " << id << '\n';
+  for (int id : graph.fixed) out << "FIX " << graph.fileId(id) << '\n';
   out << "# " << kFormatTag << " end\n";
 
   out.precision(old_precision);

@@ -98,6 +98,7 @@ IncrementalLog logFromGraph(const PoseGraph& graph, const std::string& name) {
   IncrementalLog log;
   log.name = name;
   log.dimension = graph.dimension;
+  log.file_ids = graph.file_ids;
   const int n = static_cast<int>(graph.poses.size());
   if (n == 0) return log;
 
@@ -139,6 +140,7 @@ IncrementalLog logFromGraph(const PoseGraph& graph, const std::string& name) {
 PoseGraph graphFromLog(const IncrementalLog& log) {
   PoseGraph graph;
   graph.dimension = log.dimension;
+  graph.file_ids = log.file_ids;
   graph.poses.assign(log.numPoses(), Pose::identity());
   bool anchored = false;
   for (const LogEntry& entry : log.entries) {

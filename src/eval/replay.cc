@@ -107,6 +107,7 @@ ReplayResult replay(const IncrementalLog& log, const ReplayOptions& options) {
 PoseGraph resultGraph(const IncrementalLog& log, const ReplayResult& result) {
   PoseGraph graph;
   graph.dimension = log.dimension;
+  graph.file_ids = log.file_ids;
   graph.poses = result.estimate;
   for (const LogEntry& entry : log.entries)
     if (entry.type != EntryType::kPrior) graph.edges.push_back(entry.edge);

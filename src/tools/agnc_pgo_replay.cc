@@ -205,10 +205,12 @@ void writeOutputs(const std::string& dir_name, const std::string& json, const In
   writeTumTrajectory(result.estimate, (dir / "trajectory.tum").string());
   writeG2o(inlier_optimum, (dir / "reference.g2o").string());
 
+  // The input file's ids, as estimate.g2o writes them.
+  const auto fileId = [&log](int index) { return log.file_ids.empty() ? index : log.file_ids[index]; };
   std::ostringstream csv;
   csv << "from,to,outlier,mu,weight,distance,inlier,uncorroborated\n";
   for (const LoopClosureResult& l : result.loop_closures)
-    csv << l.edge.from << ',' << l.edge.to << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << csvNumber(l.mu) << ','
+    csv << fileId(l.edge.from) << ',' << fileId(l.edge.to) << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << csvNumber(l.mu) << ','
         << csvNumber(l.weight) << ',' << csvNumber(l.distance) << ',' << (l.inlier ? 1 : 0) << ','
         << (l.uncorroborated ? 1 : 0) << '\n';
   writeFileAtomically((dir / "loop_closures.csv").string(), csv.str());
@@ -398,6 +400,8 @@ int main(int argc, char** argv) {
     if (ground_truth && static_cast<int>(ground_truth->poses.size()) != log.numPoses())
       throw std::invalid_argument("ground truth has " + std::to_string(ground_truth->poses.size()) +
                                   " poses, the input " + std::to_string(log.numPoses()));
+    if (ground_truth && ground_truth->file_ids != log.file_ids)
+      throw std::invalid_argument("ground truth and input number their poses differently (vertex ids)");
 
     const ReplayResult result = runReplay(log, args);
     const Reference reference = computeReference(log, ground_truth.get());

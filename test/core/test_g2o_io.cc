@@ -181,11 +181,79 @@ TEST(G2oIo, RejectsZeroQuaternion) {
   expectParseError("VERTEX_SE3:QUAT 0 0 0 0 0 0 0 0\n", 1, "quaternion has zero norm");
 }
 
-TEST(G2oIo, RejectsNonContiguousIds) {
-  expectParseError("VERTEX_SE2 0 0 0 0\n# gap\nVERTEX_SE2 2 1 0 0\n", 3, "contiguous");
-  // Edges only: ids 0, 1, 3.
-  expectParseError("EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 1 3 1 0 0 1 0 0 1 0 1\n", 2,
-                   "contiguous");
+void expectGraphsIdentical(const PoseGraph& a, const PoseGraph& b);  // below
+
+// Ids that skip values (ETHCampus skips 1432-1439): the poses are the ids in
+// increasing order, the edges follow them, and the file's ids come back out.
+constexpr const char* kGappedIds =
+    "VERTEX_SE2 10 0 0 0\n"
+    "VERTEX_SE2 14 2 0 0\n"  // before 11 in the file: order is by id
+    "VERTEX_SE2 11 1 0 0\n"
+    "VERTEX_SE2 20 3 0 0.5\n"
+    "EDGE_SE2 10 11 1 0 0 1 0 0 1 0 1\n"
+    "EDGE_SE2 11 14 1 0 0 1 0 0 1 0 1\n"
+    "EDGE_SE2 14 20 1 0 0.5 1 0 0 1 0 1\n"
+    "EDGE_SE2 20 10 -3 0 -0.5 1 0 0 1 0 1\n"
+    "FIX 14\n";
+
+TEST(G2oIo, NumbersSkippedIdsInOrderAndKeepsThem) {
+  const PoseGraph g = readString(kGappedIds);
+  ASSERT_EQ(g.poses.size(), 4u);
+  EXPECT_EQ(g.file_ids, (std::vector<int>{10, 11, 14, 20}));
+  EXPECT_DOUBLE_EQ(g.poses[1].translation.x(), 1.0);  // id 11
+  EXPECT_DOUBLE_EQ(g.poses[2].translation.x(), 2.0);  // id 14
+  EXPECT_NEAR(g.poses[3].yaw(), 0.5, 1e-15);          // id 20
+  ASSERT_EQ(g.edges.size(), 4u);
+  // Neighbours in id order are odometry however far apart their ids are.
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_EQ(g.edges[k].from, k);
+    EXPECT_EQ(g.edges[k].to, k + 1);
+    EXPECT_EQ(g.edges[k].kind, EdgeKind::kOdometry);
+  }
+  EXPECT_EQ(g.edges[3].from, 3);
+  EXPECT_EQ(g.edges[3].to, 0);
+  EXPECT_EQ(g.edges[3].kind, EdgeKind::kLoopClosure);
+  EXPECT_EQ(g.fixed, (std::vector<int>{2}));
+  EXPECT_EQ(g.fileId(3), 20);
+}
+
+TEST(G2oIo, WritesTheFileIdsBackExactly) {
+  const PoseGraph g = readString(kGappedIds);
+  std::ostringstream out;
+  writeG2o(g, out);
+  EXPECT_NE(out.str().find("VERTEX_SE2 20 3 0 0.5\n"), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("EDGE_SE2 20 10 -3 0 -0.5 "), std::string::npos) << out.str();
+  EXPECT_NE(out.str().find("FIX 14\n"), std::string::npos) << out.str();
+  const PoseGraph back = readString(out.str());
+  expectGraphsIdentical(g, back);
+  EXPECT_EQ(back.file_ids, g.file_ids);
+  std::ostringstream again;
+  writeG2o(back, again);
+  EXPECT_EQ(out.str(), again.str());
+}
+
+TEST(G2oIo, ContiguousIdsKeepNoFileIds) {
+  EXPECT_TRUE(readString(kTwoVertices).file_ids.empty());
+  // 1..n is not 0..n-1: kept.
+  EXPECT_EQ(readString("VERTEX_SE2 1 0 0 0\nVERTEX_SE2 2 1 0 0\n").file_ids, (std::vector<int>{1, 2}));
+}
+
+TEST(G2oIo, EdgesOnlyWithSkippedIdsComposeTheChain) {
+  // Ids 0, 1, 3: pose 2 is id 3, one step after id 1.
+  const PoseGraph g = readString("EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 1 3 1 0 0 1 0 0 1 0 1\n");
+  ASSERT_EQ(g.poses.size(), 3u);
+  EXPECT_EQ(g.file_ids, (std::vector<int>{0, 1, 3}));
+  EXPECT_DOUBLE_EQ(g.poses[2].translation.x(), 2.0);
+  EXPECT_EQ(g.numLoopClosures(), 0);
+}
+
+TEST(G2oIo, WriterRefusesFileIdsThatWouldNotReadBack) {
+  PoseGraph g = readString(kGappedIds);
+  std::ostringstream out;
+  g.file_ids = {10, 11, 11, 20};
+  EXPECT_THROW(writeG2o(g, out), std::invalid_argument);
+  g.file_ids = {10, 11, 14};
+  EXPECT_THROW(writeG2o(g, out), std::invalid_argument);
 }
 
 TEST(G2oIo, RejectsFixOfUnknownVertex) {

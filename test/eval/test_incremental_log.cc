@@ -1,6 +1,7 @@
 #include "agnc_pgo/eval/incremental_log.h"
 
 #include <algorithm>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -240,6 +241,24 @@ TEST(IncrementalLog, AGapInTheOdometryStartsANewChainWithAWeakPrior) {
   // And back: the chain start keeps its value.
   const PoseGraph back = graphFromLog(log);
   EXPECT_EQ(back.poses[2].translation, g.poses[2].translation);
+}
+
+TEST(IncrementalLog, KeepsTheFileIdsOfAGraphWhoseIdsSkipValues) {
+  // ETHCampus-like: ids 0, 1 and 9, pose 9 attached by a loop closure only.
+  std::istringstream in(
+      "VERTEX_SE2 0 0 0 0\nVERTEX_SE2 1 1 0 0\nVERTEX_SE2 9 0 1 0\n"
+      "EDGE_SE2 0 1 1 0 0 1 0 0 1 0 1\nEDGE_SE2 0 9 0 1 0 1 0 0 1 0 1\n");
+  const PoseGraph g = readG2o(in, "gapped.g2o");
+  ASSERT_EQ(g.file_ids, (std::vector<int>{0, 1, 9}));
+  const IncrementalLog log = logFromGraph(g, "gapped");
+  EXPECT_EQ(log.file_ids, g.file_ids);
+  EXPECT_EQ(log.numPoses(), 3);
+  // Poses 1 and 2 (ids 1 and 9) are neighbours in order, but no odometry
+  // joins them: pose 2 starts a chain that its loop closure attaches.
+  ASSERT_EQ(log.entries.size(), 4u);
+  EXPECT_EQ(log.entries[2].type, EntryType::kPrior);
+  EXPECT_EQ(log.entries[3].type, EntryType::kLoopClosure);
+  EXPECT_EQ(graphFromLog(log).file_ids, g.file_ids);
 }
 
 }  // namespace

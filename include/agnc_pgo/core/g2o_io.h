@@ -29,12 +29,15 @@ class ParseError : public std::runtime_error {
 // Reads a g2o file. Rejects (ParseError): a wrong token count, a non-number,
 // NaN/Inf, an unknown vertex id, a non-positive-definite information matrix, a
 // duplicate vertex, mixed 2D/3D tags, unknown tags. A file with edges but no
-// vertices is initialised by composing odometry. Edges are classified by
-// |i - j| (1 = odometry). Quaternions are normalised.
+// vertices is initialised by composing odometry. Ids need not be 0..n-1:
+// the poses are the ids in increasing order (PoseGraph::file_ids keeps them),
+// and edges are classified on those indices, |i - j| (1 = odometry).
+// Quaternions are normalised.
 PoseGraph readG2o(const std::string& path);
 PoseGraph readG2o(std::istream& in, const std::string& name);
 
-// Writes vertices, edges and FIX lines with full (round-trip) precision.
+// Writes vertices, edges and FIX lines with full (round-trip) precision,
+// under the graph's file ids where it has them.
 void writeG2o(const PoseGraph& graph, std::ostream& out);
 void writeG2o(const PoseGraph& graph, const std::string& path);
 

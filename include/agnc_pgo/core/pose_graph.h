@@ -1,4 +1,4 @@
-// The pose graph as plain data: poses (by contiguous 0-based id), relative
+// The pose graph as plain data: poses (by contiguous 0-based index), relative
 // pose edges with full information matrices, and the dimension (2 or 3).
 #pragma once
 
@@ -28,6 +28,11 @@ struct PoseGraph {
   std::vector<Pose, Eigen::aligned_allocator<Pose>> poses;  // index = id
   std::vector<Edge> edges;
   std::vector<int> fixed;           // ids marked FIX (the gauge); empty = fix pose 0
+  // The id a file gave each pose, where those are not 0..n-1 (a g2o file
+  // whose ids skip values: readG2o numbers its poses in id order, writeG2o
+  // writes these back). Empty: pose i is id i. Strictly increasing.
+  std::vector<int> file_ids;
+  int fileId(int index) const { return file_ids.empty() ? index : file_ids[index]; }
 
   int tangentDimension() const { return dimension == 2 ? 3 : 6; }
   int numLoopClosures() const;

@@ -24,6 +24,7 @@ struct IncrementalLog {
   std::string name;
   int dimension = 2;
   std::vector<LogEntry> entries;
+  std::vector<int> file_ids;  // as PoseGraph::file_ids: the input file's ids, if not 0..n-1
 
   int numPoses() const;
   int numLoopClosures() const;
