@@ -20,7 +20,9 @@
 // closures, a false one rarely has a consistent neighbour. Stages, one
 // whole-graph iteration per refineIdle() call:
 //   start          the global initialisation over the odometry and the
-//                  corroborated kept loop closures;
+//                  corroborated kept loop closures (and, where odometry
+//                  chains are several, a kept one attaching each chain
+//                  that nothing else in the start attaches);
 //   least squares  those at weight 1, every other loop closure left out;
 //   robust         every loop closure on Geman-McClure's weights at its mu,
 //                  also those the start did not hold, so that they can pull
@@ -58,6 +60,29 @@ constexpr double kRelativeTie = 1e-9;
 using internal::convergenceStep;
 using internal::newerEnd;
 
+// Which poses the edges added so far connect (union-find).
+class Components {
+ public:
+  explicit Components(int n) : parent_(n) {
+    for (int i = 0; i < n; ++i) parent_[i] = i;
+  }
+  int root(int i) {
+    while (parent_[i] != i) i = parent_[i] = parent_[parent_[i]];
+    return i;
+  }
+  // False if a and b were connected already.
+  bool join(int a, int b) {
+    a = root(a);
+    b = root(b);
+    if (a == b) return false;
+    parent_[std::max(a, b)] = std::min(a, b);
+    return true;
+  }
+
+ private:
+  std::vector<int> parent_;
+};
+
 }  // namespace
 
 std::vector<bool> IncrementalGnc::corroboratedInliers() const {
@@ -90,25 +115,27 @@ std::vector<bool> IncrementalGnc::corroboratedInliers() const {
 bool IncrementalGnc::startFoldCheck() {
   // Without the pairwise test (support_radius 0) there is no hypothesis.
   if (options_.rejection.support_radius == 0) return false;
-  const std::vector<bool> corroborated = corroboratedInliers();
+  std::vector<bool> in_start = corroboratedInliers();
+  for (size_t k = 0; k < loops_.size(); ++k)
+    in_start[k] = in_start[k] || loops_[k].override_mode == LoopOverride::kForceInlier;
+  keepAttachments(&in_start);
+  bool hypothesis = false;  // a kept loop closure left out of the start
+  for (size_t k = 0; k < loops_.size(); ++k)
+    hypothesis = hypothesis || (loops_[k].override_mode == LoopOverride::kAuto && loops_[k].inlier && !in_start[k]);
+  if (!hypothesis) return false;
   PoseGraph graph;
   graph.dimension = dimension_;
   graph.poses = poses();  // pose 0 holds the gauge
   graph.fixed = {0};
   graph.edges = odometry_;
-  bool hypothesis = false;  // a kept loop closure that nothing corroborates
-  for (size_t k = 0; k < loops_.size(); ++k) {
-    const LoopClosure& loop = loops_[k];
-    if (loop.override_mode == LoopOverride::kForceInlier || corroborated[k]) graph.edges.push_back(loop.edge);
-    hypothesis = hypothesis || (loop.override_mode == LoopOverride::kAuto && loop.inlier && !corroborated[k]);
-  }
-  if (!hypothesis) return false;
+  for (size_t k = 0; k < loops_.size(); ++k)
+    if (in_start[k]) graph.edges.push_back(loops_[k].edge);
   for (Edge& e : graph.edges) e.is_outlier = false;  // a replay's labels are not the engine's to read
   Poses start;
   try {
     start = globalInitialization(graph);
   } catch (const std::invalid_argument&) {
-    return false;  // a chain that only uncorroborated loop closures attach
+    return false;  // a chain that no kept loop closure attaches
   } catch (const std::runtime_error&) {
     return false;  // a singular linear system: no global start
   }
@@ -116,11 +143,28 @@ bool IncrementalGnc::startFoldCheck() {
   for (size_t k = 0; k < loops_.size(); ++k) {
     LoopClosure& loop = loops_[k];
     if (loop.override_mode != LoopOverride::kAuto) continue;
-    setDormant(&loop, !corroborated[k]);
-    setFullWeight(&loop, corroborated[k]);
+    setDormant(&loop, !in_start[k]);
+    setFullWeight(&loop, in_start[k]);
   }
   fold_check_ = std::make_unique<FoldCheck>();
   return true;
+}
+
+void IncrementalGnc::keepAttachments(std::vector<bool>* in_start) const {
+  // A second odometry chain (a gap in the odometry) that only
+  // uncorroborated loop closures attach would have no place in the global
+  // start; its kept attachments stay in (the first of them in arrival order
+  // for each chain joined), since the test cannot ask whether a chain's
+  // only link bent the map.
+  Components components(numPoses());
+  for (const Edge& e : odometry_) components.join(e.from, e.to);
+  for (size_t k = 0; k < loops_.size(); ++k)
+    if ((*in_start)[k]) components.join(loops_[k].edge.from, loops_[k].edge.to);
+  for (size_t k = 0; k < loops_.size(); ++k) {
+    const LoopClosure& loop = loops_[k];
+    if ((*in_start)[k] || loop.override_mode != LoopOverride::kAuto || !loop.inlier) continue;
+    if (components.join(loop.edge.from, loop.edge.to)) (*in_start)[k] = true;
+  }
 }
 
 void IncrementalGnc::stepFoldCheck() {

@@ -1011,6 +1011,32 @@ TEST(IncrementalGnc, TheFoldCheckShowsTheEnginesOwnEstimateUntilItsVerdict) {
   for (const LoopClosure& loop : engine.loopClosures()) EXPECT_TRUE(loop.inlier);
 }
 
+// A second odometry chain (a gap in the odometry) that one lone loop
+// closure attaches: the check's start keeps that attachment (without it the
+// chain has no place in a global start, and no check would run), and tests
+// the others as on one chain. The estimate stays bit for bit.
+TEST(IncrementalGnc, TheFoldCheckKeepsTheLoneAttachmentOfASecondChain) {
+  IncrementalGnc engine(2, GncOptions());
+  feedGridWorld(&engine);
+  const int start = engine.numPoses();
+  const Pose offset = Pose::fromSE2(1, 0, 0);
+  engine.addPoseWithPrior(engine.pose(50) * offset, 1e-6 * Eigen::Matrix3d::Identity());
+  for (int i = 0; i < 3; ++i) engine.addOdometry(edge(start + i, start + i + 1, Pose::fromSE2(1, 0, 0)));
+  const int attachment = engine.addLoopClosure(edge(start, 50, offset.inverse()));
+  engine.update();
+  std::vector<int> changes;
+  for (Poses last = engine.poses(); engine.refineIdle();) {
+    changes.push_back(moved(last, engine.poses()));
+    last = engine.poses();
+  }
+  const auto first_still = std::find(changes.begin(), changes.end(), 0);
+  ASSERT_NE(first_still, changes.end());
+  EXPECT_GE(changes.end() - first_still, 4);  // the check's start and its three stages
+  EXPECT_TRUE(std::all_of(first_still, changes.end() - 1, [](int m) { return m == 0; }));
+  for (const LoopClosure& loop : engine.loopClosures()) EXPECT_TRUE(loop.inlier);
+  EXPECT_TRUE(engine.loopClosures()[attachment].inlier);
+}
+
 // Anything that changes the graph discards an unfinished check: a keyframe
 // added during one is composed from the engine's own estimate, and the
 // check starts again in the next idle time.

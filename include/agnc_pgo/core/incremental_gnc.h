@@ -353,9 +353,11 @@ class IncrementalGnc {
   // second estimate; at the end of its last stage, the verdict.
   void stepFoldCheck();
   // Sets the global start and the least-squares stage's weights; false if
-  // there is nothing to test or no global start (a pose the corroborated
-  // loop closures and the odometry do not connect to pose 0).
+  // there is nothing to test or no global start.
   bool startFoldCheck();
+  // Adds to the start's loop closures the kept ones that attach an odometry
+  // chain nothing in it connects to pose 0.
+  void keepAttachments(std::vector<bool>* in_start) const;
   // Per loop closure: kept (inlier, automatic) and agreeing with a kept
   // neighbour (pairAgrees).
   std::vector<bool> corroboratedInliers() const;
