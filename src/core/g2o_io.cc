@@ -454,13 +454,14 @@ void writeG2o(const PoseGraph& graph, std::ostream& out) {
 
   out << "# " << kFormatTag << " vertices " << graph.poses.size() << " edges " << graph.edges.size() << " fix "
       << graph.fixed.size() << '\n';
-  for (size_t id = 0; id < graph.poses.size(); ++id) {
-    const Pose& p = graph.poses[id];
+  for (int index = 0; index < static_cast<int>(graph.poses.size()); ++index) {
+    const Pose& p = graph.poses[index];
+    const int id = graph.fileId(index);
     if (planar) {
-      out << "VERTEX_SE2 " << graph.fileId(static_cast<int>(id)) << ' ' << p.translation.x() << ' ' << p.translation.y() << ' '
-          << roundTripYaw(p) << '\n';
+      out << "VERTEX_SE2 " << id << ' ' << p.translation.x() << ' ' << p.translation.y() << ' ' << roundTripYaw(p)
+          << '\n';
     } else {
-      out << "VERTEX_SE3:QUAT " << graph.fileId(static_cast<int>(id)) << ' ';
+      out << "VERTEX_SE3:QUAT " << id << ' ';
       writeTranslationQuaternion(p, out);
       out << '\n';
     }

@@ -210,9 +210,9 @@ void writeOutputs(const std::string& dir_name, const std::string& json, const In
   std::ostringstream csv;
   csv << "from,to,outlier,mu,weight,distance,inlier,uncorroborated\n";
   for (const LoopClosureResult& l : result.loop_closures)
-    csv << fileId(l.edge.from) << ',' << fileId(l.edge.to) << ',' << (l.edge.is_outlier ? 1 : 0) << ',' << csvNumber(l.mu) << ','
-        << csvNumber(l.weight) << ',' << csvNumber(l.distance) << ',' << (l.inlier ? 1 : 0) << ','
-        << (l.uncorroborated ? 1 : 0) << '\n';
+    csv << fileId(l.edge.from) << ',' << fileId(l.edge.to) << ',' << (l.edge.is_outlier ? 1 : 0) << ','
+        << csvNumber(l.mu) << ',' << csvNumber(l.weight) << ',' << csvNumber(l.distance) << ','
+        << (l.inlier ? 1 : 0) << ',' << (l.uncorroborated ? 1 : 0) << '\n';
   writeFileAtomically((dir / "loop_closures.csv").string(), csv.str());
 
   std::ostringstream latency;
