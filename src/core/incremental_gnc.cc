@@ -22,9 +22,10 @@ using internal::convergenceStep;
 using internal::newerEnd;
 using internal::olderEnd;
 
-// Idle refinement: iterations per idle period at most, as optimize()'s
-// default. It stops earlier at convergence (convergence_step); the bound
-// only ends a period whose steps keep crossing the inlier gate.
+// Idle refinement, and each stage of an idle check: iterations at most, as
+// optimize()'s default. They stop earlier at convergence
+// (convergence_step); the bound only ends one whose steps keep crossing the
+// inlier gate.
 constexpr int kMaxIdleIterations = 20;
 
 // Plain least squares needs more iterations than a warm-started GNC step:
@@ -76,7 +77,7 @@ void IncrementalGnc::addFirstPose(const Pose& value, const Eigen::MatrixXd& info
 }
 
 void IncrementalGnc::addPoseWithPrior(const Pose& value, const Eigen::MatrixXd& information) {
-  discardFoldCheck();  // it was for the graph before this
+  discardIdleChecks();  // they were for the graph before this
   if (!value.translation.allFinite() || !value.rotation.coeffs().allFinite() || !information.allFinite() ||
       value.rotation.norm() < 1e-9)
     throw std::invalid_argument("prior contains NaN, Inf or a zero quaternion");
@@ -108,7 +109,7 @@ void IncrementalGnc::validateEdge(const Edge& e, bool allow_new_pose) const {
 }
 
 void IncrementalGnc::addOdometry(const Edge& edge) {
-  discardFoldCheck();  // it was for the graph before this
+  discardIdleChecks();  // they were for the graph before this
   validateEdge(edge, /*allow_new_pose=*/true);
   const bool new_pose = edge.to == numPoses();
   if (new_pose) {
@@ -121,7 +122,7 @@ void IncrementalGnc::addOdometry(const Edge& edge) {
 }
 
 int IncrementalGnc::addLoopClosure(const Edge& edge) {
-  discardFoldCheck();  // it was for the graph before this
+  discardIdleChecks();  // they were for the graph before this
   validateEdge(edge, /*allow_new_pose=*/false);
   LoopClosure loop;
   loop.edge = edge;
@@ -255,8 +256,7 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
   // keeps weights up to 0.017 at mu = 1; ten of them held M3500 0.2 m from
   // its outlier-free optimum. Whether a reset gives it another look is
   // staysDormant's question.
-  const bool at_one = loop->override_mode == LoopOverride::kAuto && options_.schedule.kind != ScheduleKind::kNone &&
-                      !loop->graduation.graduating && loop->graduation.mu >= 1.0;
+  const bool at_one = decidedAtOne(*loop);
   setDormant(loop, at_one && !schedule_.isInlier(schedule_.distanceOf(loop->distance)));
   // One it kept with a residual its own covariance explains (the chi-square
   // test at q(0.95)) is decided: the estimate is the least-squares one over
@@ -267,6 +267,11 @@ void IncrementalGnc::refresh(LoopClosure* loop) {
   // restart of its graduation makes it robust again.
   setFullWeight(loop, at_one && schedule_.withinGate(loop->distance));
   loop->weight = solver_.weight(loop->factor);
+}
+
+bool IncrementalGnc::decidedAtOne(const LoopClosure& loop) const {
+  return loop.override_mode == LoopOverride::kAuto && options_.schedule.kind != ScheduleKind::kNone &&
+         !loop.graduation.graduating && loop.graduation.mu >= 1.0;
 }
 
 void IncrementalGnc::setDormant(LoopClosure* loop, bool dormant) {
@@ -311,7 +316,7 @@ void IncrementalGnc::applyOverride(LoopClosure* loop) {
 }
 
 void IncrementalGnc::setOverride(int index, LoopOverride mode) {
-  discardFoldCheck();  // it was for the graph before this
+  discardIdleChecks();  // they were for the graph before this
   if (index < 0 || index >= static_cast<int>(loops_.size()))
     throw std::invalid_argument("unknown loop closure " + std::to_string(index));
   loops_[index].override_mode = mode;
@@ -328,7 +333,7 @@ void IncrementalGnc::finishAt(LoopClosure* loop, double mu) {
 // ---------------------------------------------------------------- update()
 
 UpdateStats IncrementalGnc::update(const std::function<void()>& first_estimate) {
-  discardFoldCheck();  // it was for the graph before this
+  discardIdleChecks();  // they were for the graph before this
   UpdateStats stats;
   std::function<void()> not_called_yet = first_estimate;
   // A loop closure the map explained tightens the map around its cycle:
@@ -1011,7 +1016,7 @@ void IncrementalGnc::settleWholeGraph(int max_iterations, UpdateStats* stats) {
 }
 
 UpdateStats IncrementalGnc::optimize(int max_iterations) {
-  discardFoldCheck();  // it was for the graph before this
+  discardIdleChecks();  // they were for the graph before this
   UpdateStats stats;
   solver_.resetTrustRegion();
   settleWholeGraph(max_iterations, &stats);
@@ -1025,12 +1030,28 @@ void IncrementalGnc::rearmIdleRefinement() {
   idle_converged_ = false;
   idle_iterations_ = 0;
   fold_check_due_ = options_.schedule.kind != ScheduleKind::kNone;
+  full_weight_check_due_ = fold_check_due_;
+}
+
+bool IncrementalGnc::idleCheckIteration(int* stage_iterations) {
+  UpdateStats stats;
+  solver_.setStepExtension(true);
+  const IterationResult r = iterateOnce(0, &stats);
+  solver_.setStepExtension(false);
+  total_iterations_ += stats.iterations;
+  const bool converged = !r.accepted || convergenceStep(r) < options_.solver.convergence_step ||
+                         ++*stage_iterations >= kMaxIdleIterations;
+  if (converged) *stage_iterations = 0;
+  return converged;
 }
 
 bool IncrementalGnc::refineIdle() {
   if (!hasIdleWork()) return false;
   if (idle_converged_) {
-    stepFoldCheck();
+    if (fold_check_due_)
+      stepFoldCheck();
+    else
+      stepFullWeightCheck();
     return true;
   }
   // The first iteration of an idle period starts the trust region afresh,

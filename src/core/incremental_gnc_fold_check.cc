@@ -49,15 +49,10 @@ namespace agnc_pgo {
 namespace core {
 namespace {
 
-// Iterations per stage at most, as an idle period's; each stage usually
-// converges in a few.
-constexpr int kMaxStageIterations = 20;
-
 // The second estimate must end lower than the engine's by more than
 // round-off in the objective's sum (the tie rule of optimizeBatchGlobal).
 constexpr double kRelativeTie = 1e-9;
 
-using internal::convergenceStep;
 using internal::newerEnd;
 
 // Which poses the edges added so far connect (union-find).
@@ -177,15 +172,7 @@ void IncrementalGnc::stepFoldCheck() {
   } else {
     restoreState(fold_check_->alternative);
     FoldCheck& check = *fold_check_;
-    UpdateStats stats;
-    solver_.setStepExtension(true);
-    const IterationResult r = iterateOnce(0, &stats);
-    solver_.setStepExtension(false);
-    total_iterations_ += stats.iterations;
-    const bool converged = !r.accepted || convergenceStep(r) < options_.solver.convergence_step ||
-                           ++check.iterations >= kMaxStageIterations;
-    if (converged) {
-      check.iterations = 0;
+    if (idleCheckIteration(&check.iterations)) {
       switch (check.stage) {
         case FoldCheck::Stage::kLeastSquares:
           // Those of negligible weight stay out, as in the engine
@@ -209,7 +196,7 @@ void IncrementalGnc::stepFoldCheck() {
             adoptFoldCheck();
             return;
           }
-          discardFoldCheck();
+          fold_check_.reset();
           restoreState(own);
           return;
       }
@@ -220,7 +207,7 @@ void IncrementalGnc::stepFoldCheck() {
 }
 
 void IncrementalGnc::adoptFoldCheck() {
-  discardFoldCheck();
+  fold_check_.reset();
   for (size_t k = 0; k < loops_.size(); ++k) {
     LoopClosure& loop = loops_[k];
     if (loop.override_mode != LoopOverride::kAuto) continue;

@@ -1,5 +1,5 @@
-// Helpers shared by the files of IncrementalGnc (incremental_gnc.cc and
-// incremental_gnc_fold_check.cc); not part of the library's interface.
+// Helpers shared by the files of IncrementalGnc (incremental_gnc.cc and its
+// idle checks); not part of the library's interface.
 #pragma once
 
 #include <algorithm>

@@ -43,8 +43,8 @@ void IncrementalGnc::restore(const Poses& estimate, const std::vector<LoopClosur
   }
   pending_.clear();
   needs_restart_.clear();
-  discardFoldCheck();
-  fold_check_due_ = false;  // a restored estimate stays as saved
+  discardIdleChecks();
+  fold_check_due_ = full_weight_check_due_ = false;  // a restored estimate stays as saved
   classifyAll();
 }
 

@@ -146,13 +146,16 @@ class IncrementalGnc {
   // objective ends lower. One call costs one whole-graph iteration (or the
   // global initialisation), so a message that arrives meanwhile waits for
   // at most that; between calls the engine holds its own estimate, and any
-  // change to the graph discards an unfinished check.
+  // change to the graph discards an unfinished check. Last, the full-weight
+  // check (incremental_gnc_full_weight.cc): the kept loop closures beyond
+  // the chi-square gate tried at full weight, kept there where least squares
+  // brings them within it and everything already at full weight stays so.
   bool refineIdle();
   // Whether refineIdle() has work: the estimate has not converged, or has
   // not been checked, since the last update() that solved, and nothing
   // waits for update().
   bool hasIdleWork() const {
-    return (!idle_converged_ || fold_check_due_) && options_.window.global_refinement && pending_.empty() &&
+    return (!idle_converged_ || fold_check_due_ || full_weight_check_due_) && options_.window.global_refinement && pending_.empty() &&
            needs_restart_.empty();
   }
 
@@ -329,6 +332,10 @@ class IncrementalGnc {
   // settle() on the whole graph with step extension (refine(), optimize()).
   void settleWholeGraph(int max_iterations, UpdateStats* stats);
   void rearmIdleRefinement();  // the estimate changed: refineIdle() has work
+  // One whole-graph iteration of an idle check's stage (the fold check's,
+  // the full-weight check's); true at the stage's convergence, or after
+  // kMaxIdleIterations, when `stage_iterations` starts again from 0.
+  bool idleCheckIteration(int* stage_iterations);
 
   // The fold check (incremental_gnc_fold_check.cc). An estimate reached
   // update by update can end in a fold -- a worse minimum of the robust
@@ -370,7 +377,44 @@ class IncrementalGnc {
   // The second estimate stands: the loop closures it keeps are no longer
   // rejected ones, those it rejects no longer landed.
   void adoptFoldCheck();
-  void discardFoldCheck() { fold_check_.reset(); }
+
+  // The full-weight check (incremental_gnc_full_weight.cc). A kept loop
+  // closure counts at full weight where its residual is within the
+  // chi-square gate (refresh()), judged at the current estimate; on a
+  // long-drift map both least squares, where it is within, and
+  // Geman-McClure's weights, which let the odometry pull it beyond, are
+  // self-consistent. The check tries the candidates -- kept, decided at
+  // mu = 1, beyond the gate -- at full weight on the whole graph; those
+  // still beyond the gate at convergence go back to their kernel weight and
+  // the graph converges again, until none is; the result stands if every
+  // loop closure trusted at full weight before is still within its gate
+  // and every candidate still kept.
+  struct FullWeightCheck {
+    std::vector<int> candidates;  // loop closures tried at full weight
+    std::vector<int> trusted;     // those at full weight before
+    Snapshot alternative;         // the estimate and states under test, between calls
+    int iterations = 0;           // since the last convergence
+  };
+  // One call's work (refineIdle()): the start, or one iteration; at each
+  // convergence the candidates beyond the gate go back to their kernel
+  // weight, and when none does, the verdict.
+  void stepFullWeightCheck();
+  // Puts the candidates at full weight; false if there are none.
+  bool startFullWeightCheck();
+  // The candidates at full weight still beyond the gate go back to their
+  // kernel weight; false if none does.
+  bool demoteBeyondTheGate(const std::vector<int>& candidates);
+  // Whether the estimate keeps the trusted loop closures within their gate
+  // and the candidates kept.
+  bool fullWeightStands(const FullWeightCheck& check) const;
+  // A loop closure the graduation has decided at mu = 1 under the automatic
+  // classification (refresh() weighs such loop closures by the gate).
+  bool decidedAtOne(const LoopClosure& loop) const;
+  // Ends unfinished idle checks (the graph they were for has changed).
+  void discardIdleChecks() {
+    fold_check_.reset();
+    full_weight_check_.reset();
+  }
 
   int dimension_;
   GncOptions options_;
@@ -403,6 +447,8 @@ class IncrementalGnc {
   int idle_iterations_ = 0;
   bool fold_check_due_ = false;  // since the last update() that solved
   std::unique_ptr<FoldCheck> fold_check_;  // under way
+  bool full_weight_check_due_ = false;  // since the last update() that solved
+  std::unique_ptr<FullWeightCheck> full_weight_check_;  // under way
   NoiseScale translation_noise_, rotation_noise_;
   Poses dead_reckoning_;  // per pose: the odometry composed along its chain
   int next_noise_estimate_ = 1;  // samples at which the noise scale is estimated next
